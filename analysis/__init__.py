@@ -1,0 +1,1 @@
+"""Analysis of logged runs: tables and figures regenerated from run directories."""

@@ -1,0 +1,99 @@
+"""Per-run learning summary: ``python -m analysis.summary RUN_DIR... [--csv OUT]``.
+
+Reads each run directory's ``summary.csv`` and ``config.yaml`` and prints one Markdown row
+per run: kernel, model, seed, trial of first success, cumulative evaluation cost (2.17)
+per trial and wall time. Runs that are still going show the trials finished so far.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Iterable
+from pathlib import Path
+
+import pandas as pd
+from omegaconf import OmegaConf
+
+KERNEL_NAMES = {
+    "SquaredExponential": "SE",
+    "MultiplicativePolynomial": "P",
+    "PhysicalBasis": "PI",
+}
+
+
+def kernel_label(kernel: dict) -> str:  # type: ignore[type-arg]
+    """A short name for a kernel config: SE, SE+P(2), PI+SE, ..."""
+    target = str(kernel["_target_"]).rsplit(".", 1)[-1]
+    if target == "Sum":
+        return "+".join(kernel_label(term) for term in kernel["terms"])
+    name = KERNEL_NAMES.get(target, target)
+    return f"P({kernel['degree']})" if name == "P" else name
+
+
+def load_run(path: Path) -> dict[str, object]:
+    """One run as a flat record (config facts + per-trial eval cost and success)."""
+    summary = pd.read_csv(path / "summary.csv")
+    config = OmegaConf.to_container(OmegaConf.load(path / "config.yaml"))
+    assert isinstance(config, dict)
+    successes = summary.loc[summary["trial"] > 0]
+    first = successes.loc[successes["success"].astype(bool), "trial"]
+    record: dict[str, object] = {
+        "run": str(path),
+        "kernel": kernel_label(config["kernel"]),
+        "model": str(config["model"]["_target_"]).rsplit(".", 1)[-1],
+        "seed": config["seed"],
+        "trials_done": int(summary["trial"].max()),
+        "first_success": int(first.iloc[0]) if len(first) else None,
+        "wall_minutes": (summary["timestamp"].iloc[-1] - summary["timestamp"].iloc[0]) / 60,
+    }
+    for row in summary.itertuples():
+        record[f"cost_T{row.trial}"] = row.eval_cost
+        record[f"success_T{row.trial}"] = bool(row.success)
+    return record
+
+
+def load_runs(paths: Iterable[Path]) -> pd.DataFrame:
+    """Every run directory (one holding ``summary.csv``) under the given paths."""
+    runs = sorted({p.parent for path in paths for p in Path(path).rglob("summary.csv")})
+    return pd.DataFrame([load_run(run) for run in runs])
+
+
+def markdown(table: pd.DataFrame) -> str:
+    """The README table: one row per run."""
+    trials = sorted(
+        int(c.removeprefix("cost_T")) for c in table.columns if c.startswith("cost_T")
+    )
+    header = ["kernel", "seed", "first success"] + [f"cost T{t}" for t in trials] + ["wall (min)"]
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for row in table.sort_values(["kernel", "seed"]).itertuples():
+        record = row._asdict()
+        costs = []
+        for t in trials:
+            value = record.get(f"cost_T{t}")
+            mark = " ✓" if record.get(f"success_T{t}") is True else ""
+            costs.append("—" if pd.isna(value) else f"{value:.1f}{mark}")
+        first = "—" if pd.isna(record["first_success"]) else f"T{int(record['first_success'])}"
+        lines.append(
+            "| "
+            + " | ".join(
+                [str(record["kernel"]), str(record["seed"]), first, *costs]
+                + [f"{record['wall_minutes']:.0f}"]
+            )
+            + " |"
+        )
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("paths", nargs="+", type=Path, help="run directories or parents")
+    parser.add_argument("--csv", type=Path, help="also write the flat table here")
+    args = parser.parse_args()
+    table = load_runs(args.paths)
+    if args.csv:
+        table.to_csv(args.csv, index=False)
+    print(markdown(table))  # noqa: T201
+
+
+if __name__ == "__main__":
+    main()

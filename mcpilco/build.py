@@ -1,0 +1,99 @@
+"""The one place that turns a composed config into objects."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from functools import partial
+from typing import Any
+
+import torch
+from hydra.errors import InstantiationException
+from hydra.utils import instantiate
+from omegaconf import DictConfig
+
+from mcpilco.errors import ConfigError
+from mcpilco.seeding import RandomStreams
+from mcpilco.trial_loop import Components
+
+log = logging.getLogger(__name__)
+
+DTYPES = {"float64": torch.float64, "float32": torch.float32}
+
+
+@dataclass
+class Experiment:
+    """A built run: its components, random streams and trial count."""
+
+    components: Components
+    streams: RandomStreams
+    num_trials: int
+    dtype: torch.dtype
+    device: torch.device
+
+
+def resolve_device(name: str) -> torch.device:
+    """``cpu``, ``cuda`` or ``cuda:K``; a clear error when CUDA is not there."""
+    try:
+        device = torch.device(name)
+    except RuntimeError as error:
+        raise ConfigError(f"device={name!r} is not a torch device") from error
+    if device.type == "cuda" and not torch.cuda.is_available():
+        raise ConfigError(f"device={name!r} but torch sees no CUDA device")
+    if device.type not in ("cpu", "cuda"):
+        raise ConfigError(f"device={name!r}: only cpu and cuda are supported")
+    return device
+
+
+def check_top_level(cfg: DictConfig) -> tuple[torch.dtype, torch.device]:
+    """Validate the keys outside the groups; one-line errors naming key and value."""
+    if cfg.dtype not in DTYPES:
+        raise ConfigError(f"dtype={cfg.dtype!r} must be one of {sorted(DTYPES)}")
+    if not isinstance(cfg.seed, int) or cfg.seed < 0:
+        raise ConfigError(f"seed={cfg.seed!r} must be a non-negative integer")
+    if not isinstance(cfg.num_trials, int) or cfg.num_trials < 1:
+        raise ConfigError(f"num_trials={cfg.num_trials!r} must be a positive integer")
+    if cfg.get("threads") is not None and (not isinstance(cfg.threads, int) or cfg.threads < 1):
+        raise ConfigError(f"threads={cfg.threads!r} must be a positive integer or null")
+    return DTYPES[cfg.dtype], resolve_device(cfg.device)
+
+
+def _make(node: Any, **kwargs: Any) -> Any:
+    """``hydra.utils.instantiate`` that lets our one-line :class:`ConfigError` through
+    instead of Hydra's multi-line wrapper."""
+    try:
+        return instantiate(node, **kwargs)
+    except InstantiationException as error:
+        cause: BaseException | None = error
+        while cause is not None and not isinstance(cause, ConfigError):
+            cause = cause.__cause__
+        if cause is None:
+            raise
+        raise cause from None
+
+
+def build(cfg: DictConfig) -> Experiment:
+    """Instantiate every component (all validation happens here, before any work)."""
+    dtype, device = check_top_level(cfg)
+    if cfg.get("threads") is not None:
+        torch.set_num_threads(cfg.threads)
+    streams = RandomStreams.from_seed(cfg.seed, device)
+    system = _make(cfg.system)
+    model = _make(cfg.model, system=system, kernel=_make(cfg.kernel))
+    model.new_gp()  # builds a kernel now, so kernel errors surface before any work
+    policy = _make(cfg.policy)(
+        input_dim=model.policy_input_dim,
+        action_dim=system.action_dim,
+        u_max=system.u_max,
+        generator=streams.policy_init,
+    )
+    components = Components(
+        system=system,
+        model=model.to(dtype=dtype, device=device),
+        policy=policy.to(dtype=dtype, device=device),
+        cost=_make(cfg.cost).to(dtype=dtype, device=device),
+        estimator=_make(cfg.estimator),
+        optimizer=_make(cfg.optimizer),
+        exploration=partial(_make(cfg.exploration), action_dim=system.action_dim),
+    )
+    return Experiment(components, streams, cfg.num_trials, dtype, device)

@@ -1,0 +1,103 @@
+"""Kernel interface.
+
+Every kernel holds one set of hyper-parameters per GP output (``num_outputs = G``) and maps
+inputs ``x1 [N1, D]``, ``x2 [N2, D]`` (shared by all outputs) to covariances ``[G, N1, N2]``.
+Hyper-parameters are stored unconstrained (logarithms) so any optimiser can move them freely.
+Kernels are built from config as partials and completed with a :class:`KernelShape`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Protocol
+
+import torch
+from torch import nn
+
+from mcpilco.errors import ConfigError
+
+BasisFunction = Callable[[torch.Tensor], torch.Tensor]
+"""Maps GP inputs ``[N, D]`` to per-output features ``[G, N, P]``."""
+
+PreparedKernel = Callable[[torch.Tensor], tuple[torch.Tensor, torch.Tensor]]
+"""Maps test inputs ``x [M, D]`` to ``(k(x, X) [G, M, N], k(x, x) [G, M])`` for fixed
+training inputs X."""
+
+
+@dataclass(frozen=True)
+class KernelShape:
+    """What a kernel needs to know about the model it serves.
+
+    Attributes:
+        num_outputs: number of independent GPs G.
+        input_dim: GP input dimension D.
+        basis: physically-inspired features of each output (for the SP kernel), or None.
+    """
+
+    num_outputs: int
+    input_dim: int
+    basis: BasisFunction | None = None
+
+
+class Kernel(nn.Module, ABC):
+    """A covariance function k(x, x') batched over G outputs."""
+
+    def __init__(self, shape: KernelShape) -> None:
+        super().__init__()
+        self.shape = shape
+
+    @abstractmethod
+    def forward(self, x1: torch.Tensor, x2: torch.Tensor) -> torch.Tensor:
+        """Covariance ``[G, N1, N2]`` between ``x1 [N1, D]`` and ``x2 [N2, D]``."""
+
+    @abstractmethod
+    def diag(self, x: torch.Tensor) -> torch.Tensor:
+        """Prior variances k(x, x) ``[G, N]`` of ``x [N, D]``."""
+
+    def prepare(self, x2: torch.Tensor) -> PreparedKernel:
+        """``x1 ↦ (k(x1, x2), k(x1, x1) diagonal)`` with everything that depends only on
+        ``x2`` and the hyper-parameters computed once (predictions at fixed training
+        inputs). The default closes over ``x2``; kernels override it where it pays."""
+        return lambda x1: (self(x1, x2), self.diag(x1))
+
+    def _log_parameter(self, name: str, value: float | Sequence[float], size: int) -> nn.Parameter:
+        """A ``[G, size]`` parameter holding log(value), after checking value > 0."""
+        values = torch.as_tensor(value, dtype=torch.float64).flatten()
+        if values.numel() not in (1, size) or torch.any(values <= 0):
+            raise ConfigError(
+                f"kernel {type(self).__name__}.{name} must be positive with 1 or {size} "
+                f"entries, got {value!r}"
+            )
+        values = values.expand(size).log()
+        return nn.Parameter(values.repeat(self.shape.num_outputs, 1).clone())
+
+
+class KernelFactory(Protocol):
+    """A kernel config after Hydra: call it with the shape to get the kernel."""
+
+    def __call__(self, shape: KernelShape) -> Kernel: ...
+
+
+def select_dims(x: torch.Tensor, dims: Sequence[int] | None) -> torch.Tensor:
+    """Columns ``dims`` of ``x [N, D]`` (all columns when None)."""
+    return x if dims is None else x[..., list(dims)]
+
+
+def check_dims(kernel: str, dims: Sequence[int] | None, input_dim: int) -> int:
+    """Validate active dimensions and return how many there are."""
+    if dims is None:
+        return input_dim
+    if len(dims) == 0 or any(d < -input_dim or d >= input_dim for d in dims):
+        raise ConfigError(
+            f"kernel {kernel}.active_dims={list(dims)} out of range for D={input_dim}"
+        )
+    return len(dims)
+
+
+def squared_distances(z1: torch.Tensor, z2: torch.Tensor) -> torch.Tensor:
+    """‖z1_i − z2_j‖² ``[..., N1, N2]`` from ``[..., N1, D]``, ``[..., N2, D]`` (one matmul)."""
+    cross = torch.matmul(z1, z2.transpose(-1, -2))
+    squared = z1.square().sum(-1)[..., :, None] + z2.square().sum(-1)[..., None, :] - 2.0 * cross
+    return squared.clamp_min(0.0)

@@ -1,0 +1,89 @@
+"""Monte Carlo particle rollout through the GP model (thesis §2.4.2, Fig. 3.2)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+from torch import nn
+
+from mcpilco.estimators.base import StateEstimator
+from mcpilco.models.base import ModelStructure
+from mcpilco.policies.rbf import SquashedRBFPolicy
+
+
+@dataclass
+class RolloutResult:
+    """Ĵ (scalar, differentiable), mean cost per step ``[T+1]`` and states ``[T+1, M, d_x]``."""
+
+    total_cost: torch.Tensor
+    step_costs: torch.Tensor
+    states: torch.Tensor
+
+
+class ParticleRollout:
+    """Propagates M particles from p(x0) for T steps under a policy.
+
+    Per step: the online estimator turns each particle's state into what the policy sees,
+    the policy acts (with a fresh dropout mask per particle and step), the model samples the
+    next particle with pre-drawn standard-normal noise (reparameterisation trick). All
+    random numbers of a rollout are drawn up front in a few batched calls.
+
+    Args:
+        model: fitted model structure. policy: the policy being optimised.
+        cost: c(x) on states ``[..., d_x]``. estimator: online estimator.
+        initial_mean, initial_std: p(x0) = N(mean, diag(std²)), ``[d_x]`` each.
+        horizon: T.
+    """
+
+    def __init__(
+        self,
+        model: ModelStructure,
+        policy: SquashedRBFPolicy,
+        cost: nn.Module,
+        estimator: StateEstimator,
+        initial_mean: torch.Tensor,
+        initial_std: torch.Tensor,
+        horizon: int,
+    ) -> None:
+        self.model = model
+        self.policy = policy
+        self.cost = cost
+        self.estimator = estimator
+        self.initial_mean = initial_mean
+        self.initial_std = initial_std
+        self.horizon = horizon
+
+    def __call__(
+        self, num_particles: int, dropout: float, generator: torch.Generator | None
+    ) -> RolloutResult:
+        like = {"dtype": self.initial_mean.dtype, "device": self.initial_mean.device}
+        dim = self.initial_mean.shape[0]
+        start = torch.randn(num_particles, dim, generator=generator, **like)
+        noise = torch.randn(
+            self.horizon, self.model.num_outputs, num_particles, generator=generator, **like
+        )
+        bits = (
+            self.policy.dropout_bits(self.horizon, num_particles, generator)
+            if dropout > 0
+            else None
+        )
+        act = self.policy.prepare()
+        particles = self.model.initial_particles(self.initial_mean + self.initial_std * start)
+        states = [self.model.physical_state(particles)]
+        memory = self.estimator.online_reset(num_particles, particles)
+        for t in range(self.horizon):
+            if self.estimator.is_identity:
+                # The policy sees the particle itself: encode its features once for both
+                # the policy and the GP input.
+                encoded = self.model.encode(particles)
+                policy_inputs = self.model.policy_inputs_from_encoded(encoded)
+            else:
+                estimate, memory = self.estimator.online_step(states[-1], memory)
+                encoded, policy_inputs = None, self.model.policy_inputs(estimate)
+            actions = act(policy_inputs, None if bits is None else bits[t], dropout)
+            particles = self.model.step(particles, actions, noise[t], encoded)
+            states.append(self.model.physical_state(particles))
+        trajectory = torch.stack(states)  # [T+1, M, d_x]
+        step_costs = self.cost(trajectory).mean(-1)  # [T+1]
+        return RolloutResult(step_costs.sum(), step_costs, trajectory)

@@ -1,0 +1,89 @@
+"""A run directory on disk: resolved config, per-trial summary, data and checkpoints.
+
+Everything of a trial is written as soon as the trial ends, each file atomically (written
+beside its final name, then renamed), so a crash or Ctrl-C never loses a finished trial.
+Checkpoints hold state dicts of tensors only and are read with ``weights_only=True``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import torch
+
+from mcpilco.trajectory import Trajectory
+
+
+def _atomic_path(path: Path) -> Path:
+    return path.with_name(f".{path.name}.partial")
+
+
+class RunDirectory:
+    """Files of one run.
+
+    Layout::
+
+        config.yaml                  resolved config (written by the runner)
+        summary.csv                  one row per trial (trial 0 = exploration)
+        trajectories/trial_KK.npz    states, measurements, actions, dt
+        optimization/trial_KK.csv    Ĵ, p_d, α_lr, s per optimisation step
+        checkpoints/trial_KK/model.pt, policy.pt   state dicts
+    """
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
+        self.path = Path(path)
+        self.path.mkdir(parents=True, exist_ok=True)
+
+    def _write(self, path: Path, write: Any) -> None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial = _atomic_path(path)
+        write(partial)
+        os.replace(partial, path)
+
+    def write_text(self, name: str, text: str) -> None:
+        self._write(self.path / name, lambda p: p.write_text(text))
+
+    def save_trajectory(self, trial: int, trajectory: Trajectory) -> None:
+        def write(p: Path) -> None:
+            with open(p, "wb") as handle:
+                np.savez(handle, **trajectory.as_arrays())
+
+        self._write(self.path / "trajectories" / f"trial_{trial:02d}.npz", write)
+
+    def load_trajectory(self, trial: int) -> Trajectory:
+        with np.load(self.path / "trajectories" / f"trial_{trial:02d}.npz") as arrays:
+            return Trajectory.from_arrays(dict(arrays))
+
+    def save_optimization_trace(self, trial: int, trace: Mapping[str, list[float]]) -> None:
+        frame = pd.DataFrame(trace)
+        frame.index.name = "step"
+        self._write(
+            self.path / "optimization" / f"trial_{trial:02d}.csv", lambda p: frame.to_csv(p)
+        )
+
+    def save_checkpoint(self, trial: int, name: str, state: Mapping[str, torch.Tensor]) -> None:
+        tensors = {key: value.detach().cpu() for key, value in state.items()}
+        self._write(
+            self.path / "checkpoints" / f"trial_{trial:02d}" / f"{name}.pt",
+            lambda p: torch.save(tensors, p),
+        )
+
+    def load_checkpoint(self, trial: int, name: str) -> dict[str, torch.Tensor]:
+        path = self.path / "checkpoints" / f"trial_{trial:02d}" / f"{name}.pt"
+        return torch.load(path, map_location="cpu", weights_only=True)
+
+    def append_summary(self, row: Mapping[str, Any]) -> pd.DataFrame:
+        """Add one trial's row to ``summary.csv`` and return the whole table."""
+        path = self.path / "summary.csv"
+        table = pd.read_csv(path) if path.exists() else pd.DataFrame()
+        table = pd.concat([table, pd.DataFrame([dict(row)])], ignore_index=True)
+        self._write(path, lambda p: table.to_csv(p, index=False))
+        return table
+
+    def summary(self) -> pd.DataFrame:
+        return pd.read_csv(self.path / "summary.csv")

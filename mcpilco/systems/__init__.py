@@ -1,0 +1,6 @@
+"""Systems: the plants a policy is learned for (one file per plant, one interface)."""
+
+from mcpilco.systems.base import Controller, MechanicalSystem, OdeSystem
+from mcpilco.systems.cartpole import CartPole
+
+__all__ = ["CartPole", "Controller", "MechanicalSystem", "OdeSystem"]

@@ -1,0 +1,174 @@
+"""The system interface: what the learning algorithm needs to know about a plant."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from typing import Protocol
+
+import numpy as np
+import torch
+from scipy.integrate import solve_ivp
+
+from mcpilco.errors import ConfigError
+from mcpilco.trajectory import Trajectory
+
+
+class Controller(Protocol):
+    """Maps the latest measurement ``[d_x]`` at control step ``step`` to an action ``[d_u]``."""
+
+    def __call__(self, measurement: np.ndarray, step: int) -> np.ndarray: ...
+
+
+def _positive(name: str, value: float) -> float:
+    if not np.isfinite(value) or value <= 0:
+        raise ConfigError(f"system.{name} must be positive, got {value!r}")
+    return float(value)
+
+
+class MechanicalSystem(ABC):
+    """A plant with generalised positions ``q`` and velocities ``q̇``.
+
+    The state is ordered as the subclass says; ``position_indices[k]`` and
+    ``velocity_indices[k]`` name the k-th coordinate and its velocity. Angles (revolute
+    coordinates) are listed in ``angle_indices`` and enter GP and policy inputs as sin/cos.
+
+    Args:
+        dt: sampling time in seconds.
+        trial_duration: length of one trial in seconds.
+        u_max: bound on every action component (|u| ≤ u_max).
+        measurement_noise_std: std of the additive white Gaussian sensor noise, one value
+            per state component or one for all.
+        initial_mean: mean of p(x0), ``[d_x]``.
+        initial_std: std of p(x0) (diagonal), one value per component or one for all.
+    """
+
+    position_indices: tuple[int, ...] = ()
+    velocity_indices: tuple[int, ...] = ()
+    angle_indices: tuple[int, ...] = ()
+    action_dim: int = 1
+
+    def __init__(
+        self,
+        dt: float,
+        trial_duration: float,
+        u_max: float,
+        measurement_noise_std: float | Sequence[float],
+        initial_mean: Sequence[float],
+        initial_std: float | Sequence[float],
+    ) -> None:
+        self.dt = _positive("dt", dt)
+        self.trial_duration = _positive("trial_duration", trial_duration)
+        self.u_max = _positive("u_max", u_max)
+        self.measurement_noise_std = self._per_state("measurement_noise_std", measurement_noise_std)
+        if np.any(self.measurement_noise_std <= 0):
+            raise ConfigError(
+                f"system.measurement_noise_std must be > 0, got {measurement_noise_std!r}"
+            )
+        self.initial_mean = np.asarray(initial_mean, dtype=np.float64)
+        if self.initial_mean.shape != (self.state_dim,):
+            raise ConfigError(
+                f"system.initial_mean must have {self.state_dim} entries, got {initial_mean!r}"
+            )
+        self.initial_std = self._per_state("initial_std", initial_std)
+        if np.any(self.initial_std < 0):
+            raise ConfigError(f"system.initial_std must be >= 0, got {initial_std!r}")
+        steps = self.trial_duration / self.dt
+        if abs(steps - round(steps)) > 1e-6 or round(steps) < 1:
+            raise ConfigError(
+                f"system.trial_duration={trial_duration} is not a whole number of dt={dt} steps"
+            )
+
+    def _per_state(self, name: str, value: float | Sequence[float]) -> np.ndarray:
+        array = np.broadcast_to(np.asarray(value, dtype=np.float64), (self.state_dim,))
+        if not np.all(np.isfinite(array)):
+            raise ConfigError(f"system.{name} must be finite, got {value!r}")
+        return array.copy()
+
+    @property
+    def state_dim(self) -> int:
+        """Number of state components d_x."""
+        return len(self.position_indices) + len(self.velocity_indices)
+
+    @property
+    def num_steps(self) -> int:
+        """Control steps per trial T = trial_duration / dt."""
+        return int(round(self.trial_duration / self.dt))
+
+    def sample_initial_state(self, rng: np.random.Generator) -> np.ndarray:
+        """Draw x0 ~ N(initial_mean, diag(initial_std²)), ``[d_x]``."""
+        return self.initial_mean + self.initial_std * rng.standard_normal(self.state_dim)
+
+    def measure(self, state: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """The sensors' reading of ``state`` ``[d_x]``: additive Gaussian noise."""
+        return state + self.measurement_noise_std * rng.standard_normal(state.shape)
+
+    @abstractmethod
+    def step(self, state: np.ndarray, action: np.ndarray) -> np.ndarray:
+        """Advance the true state ``[d_x]`` by one sample with ``action`` ``[d_u]`` held."""
+
+    def rollout(
+        self, controller: Controller, x0: np.ndarray, num_steps: int, rng: np.random.Generator
+    ) -> Trajectory:
+        """Run ``controller`` in closed loop from ``x0`` for ``num_steps`` samples."""
+        states = np.empty((num_steps + 1, self.state_dim))
+        measurements = np.empty_like(states)
+        actions = np.empty((num_steps, self.action_dim))
+        states[0] = x0
+        measurements[0] = self.measure(x0, rng)
+        for t in range(num_steps):
+            action = np.clip(
+                np.asarray(controller(measurements[t], t), dtype=np.float64).reshape(
+                    self.action_dim
+                ),
+                -self.u_max,
+                self.u_max,
+            )
+            actions[t] = action
+            states[t + 1] = self.step(states[t], action)
+            measurements[t + 1] = self.measure(states[t + 1], rng)
+        return Trajectory(states=states, measurements=measurements, actions=actions, dt=self.dt)
+
+    def velocity_basis(self, features: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+        """Physically-inspired basis φ of each velocity change, for the SP kernel.
+
+        Args:
+            features: ``[..., d_x + n_angles]`` state features x*: the non-angle state
+                components in state order, then sin of each angle, then cos of each angle
+                (see :class:`mcpilco.models.AngleFeatures`).
+            action: ``[..., d_u]`` actions.
+        Returns:
+            ``[d_q, ..., P]``: row k holds the basis of the k-th velocity's change.
+        """
+        raise NotImplementedError(
+            f"{type(self).__name__} has no physical basis; the SP kernel needs one"
+        )
+
+    def evaluate(self, trajectory: Trajectory) -> dict[str, float]:
+        """Task metrics of a rollout (e.g. evaluation cost, success). Empty by default."""
+        return {}
+
+
+class OdeSystem(MechanicalSystem):
+    """A system given by an ODE ẋ = f(x, u), integrated with the action held (ZOH).
+
+    Integration uses scipy's DOP853 with tight tolerances (``rtol``, ``atol``).
+    """
+
+    rtol: float = 1e-10
+    atol: float = 1e-10
+
+    @abstractmethod
+    def derivatives(self, state: np.ndarray, action: np.ndarray) -> np.ndarray:
+        """ẋ ``[d_x]`` at ``state`` ``[d_x]`` under ``action`` ``[d_u]``."""
+
+    def step(self, state: np.ndarray, action: np.ndarray) -> np.ndarray:
+        solution = solve_ivp(
+            lambda _t, x: self.derivatives(x, action),
+            (0.0, self.dt),
+            state,
+            method="DOP853",
+            rtol=self.rtol,
+            atol=self.atol,
+        )
+        return solution.y[:, -1]

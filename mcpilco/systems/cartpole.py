@@ -1,0 +1,127 @@
+"""Cart-pole swing-up (thesis §2.5, App. A.1; PILCO's physical parameters)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import torch
+
+from mcpilco.systems.base import OdeSystem
+from mcpilco.trajectory import Trajectory
+
+
+class CartPole(OdeSystem):
+    """Cart on a track with a pendulum; state ``[p, ṗ, θ, θ̇]`` (m, m/s, rad, rad/s).
+
+    θ = 0 hangs down, θ = ±π is upright. The input is the horizontal force on the cart (N).
+
+    Args:
+        cart_mass: M in kg. pole_mass: m in kg. pole_length: L in m.
+        friction: viscous cart friction b in N·s/m. gravity: g in m/s².
+        success_position: |p| bound (m) and ``success_angle_deg`` the allowed deviation of
+            |θ| from 180° (deg), both over the last ``success_window`` seconds.
+        eval_length_scale: length-scale (m) of the evaluation cost (2.17).
+        Others: see :class:`MechanicalSystem`.
+    """
+
+    position_indices = (0, 2)
+    velocity_indices = (1, 3)
+    angle_indices = (2,)
+    action_dim = 1
+
+    def __init__(
+        self,
+        dt: float = 0.05,
+        trial_duration: float = 3.0,
+        u_max: float = 10.0,
+        measurement_noise_std: float | Sequence[float] = 1e-2,
+        initial_mean: Sequence[float] = (0.0, 0.0, 0.0, 0.0),
+        initial_std: float | Sequence[float] = 1e-2,
+        cart_mass: float = 0.5,
+        pole_mass: float = 0.5,
+        pole_length: float = 0.5,
+        friction: float = 0.1,
+        gravity: float = 9.81,
+        success_position: float = 0.1,
+        success_angle_deg: float = 10.0,
+        success_window: float = 1.0,
+        eval_length_scale: float = 0.25,
+    ) -> None:
+        super().__init__(
+            dt, trial_duration, u_max, measurement_noise_std, initial_mean, initial_std
+        )
+        self.cart_mass = cart_mass
+        self.pole_mass = pole_mass
+        self.pole_length = pole_length
+        self.friction = friction
+        self.gravity = gravity
+        self.success_position = success_position
+        self.success_angle_deg = success_angle_deg
+        self.success_window = success_window
+        self.eval_length_scale = eval_length_scale
+
+    def derivatives(self, state: np.ndarray, action: np.ndarray) -> np.ndarray:
+        """Equations of motion of App. A.1 (Lagrangian, pole as a uniform rod)."""
+        _, p_dot, theta, theta_dot = state
+        force = float(action[0]) - self.friction * p_dot
+        big_m, m, length, g = self.cart_mass, self.pole_mass, self.pole_length, self.gravity
+        s, c = np.sin(theta), np.cos(theta)
+        denominator = 4.0 * (big_m + m) - 3.0 * m * c**2
+        p_ddot = (2.0 * m * length * theta_dot**2 * s + 3.0 * m * g * s * c + 4.0 * force) / (
+            denominator
+        )
+        theta_ddot = (
+            -3.0 * m * length * theta_dot**2 * s * c - 6.0 * (big_m + m) * g * s - 6.0 * force * c
+        ) / (length * denominator)
+        return np.array([p_dot, p_ddot, theta_dot, theta_ddot])
+
+    def energy(self, state: np.ndarray) -> float:
+        """Total mechanical energy (J), potential zero at the pivot height."""
+        _, p_dot, theta, theta_dot = state
+        m, length = self.pole_mass, self.pole_length
+        kinetic = (
+            0.5 * (self.cart_mass + m) * p_dot**2
+            + 0.5 * m * length * p_dot * theta_dot * np.cos(theta)
+            + m * length**2 * theta_dot**2 / 6.0
+        )
+        potential = -0.5 * m * self.gravity * length * np.cos(theta)
+        return float(kinetic + potential)
+
+    def velocity_basis(self, features: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
+        """φ_ṗ = [θ̇² sinθ, sinθ cosθ, u, ṗ], φ_θ̇ = [θ̇² sinθ cosθ, sinθ, u cosθ, ṗ cosθ];
+        features x* = [p, ṗ, θ̇, sin θ, cos θ]."""
+        p_dot, theta_dot, s, c = (
+            features[..., 1],
+            features[..., 2],
+            features[..., 3],
+            features[..., 4],
+        )
+        u = action[..., 0]
+        w2s = theta_dot.square() * s
+        phi_cart = torch.stack([w2s, s * c, u, p_dot], dim=-1)
+        phi_pole = torch.stack([w2s * c, s, u * c, p_dot * c], dim=-1)
+        return torch.stack([phi_cart, phi_pole], dim=0)
+
+    def evaluation_cost(self, states: np.ndarray) -> np.ndarray:
+        """PILCO's cost (2.17) per state ``[T+1]``: 1 − exp(−½ (d/0.25)²)."""
+        p, theta = states[:, 0], states[:, 2]
+        length = self.pole_length
+        d2 = p**2 + 2.0 * p * length * np.sin(theta) + 2.0 * length**2 * (1.0 + np.cos(theta))
+        return 1.0 - np.exp(-0.5 * d2 / self.eval_length_scale**2)
+
+    def evaluate(self, trajectory: Trajectory) -> dict[str, float]:
+        """Cumulative evaluation cost over x_0..x_T, success (§2.5) and final precision."""
+        states = trajectory.states
+        window = trajectory.times >= trajectory.times[-1] - self.success_window - 1e-9
+        p, abs_theta_deg = states[window, 0], np.degrees(np.abs(states[window, 2]))
+        success = bool(
+            np.all(np.abs(p) < self.success_position)
+            and np.all(np.abs(abs_theta_deg - 180.0) < self.success_angle_deg)
+        )
+        return {
+            "eval_cost": float(self.evaluation_cost(states).sum()),
+            "success": success,
+            "final_position_error": float(np.mean(np.abs(p))),
+            "final_angle_error": float(np.mean(np.abs(np.abs(states[window, 2]) - np.pi))),
+        }

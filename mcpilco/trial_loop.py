@@ -1,0 +1,155 @@
+"""The trial loop of MC-PILCO (thesis Algorithm 1): explore, then fit → optimise → run."""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import pandas as pd
+import torch
+from torch import nn
+
+from mcpilco.controller import PolicyController
+from mcpilco.errors import NotPositiveDefiniteError
+from mcpilco.estimators.base import StateEstimator
+from mcpilco.models.base import ModelStructure
+from mcpilco.optim.policy_optimizer import PolicyOptimizer, StepInfo
+from mcpilco.optim.rollout import ParticleRollout
+from mcpilco.policies.rbf import SquashedRBFPolicy
+from mcpilco.run_storage import RunDirectory
+from mcpilco.seeding import RandomStreams
+from mcpilco.systems.base import Controller, MechanicalSystem
+from mcpilco.trajectory import Trajectory
+
+log = logging.getLogger(__name__)
+
+ExplorationFactory = Callable[..., Controller]
+"""Called as ``factory(rng=...)`` with the system's random generator."""
+
+
+@dataclass
+class Components:
+    """Everything a run is made of, built from the config by :mod:`mcpilco.build`."""
+
+    system: MechanicalSystem
+    model: ModelStructure
+    policy: SquashedRBFPolicy
+    cost: nn.Module
+    estimator: StateEstimator
+    optimizer: PolicyOptimizer
+    exploration: ExplorationFactory
+
+
+class TrialLoop:
+    """Runs exploration and ``num_trials`` learning trials, storing each as it finishes.
+
+    Args:
+        components: system, model, policy, cost, estimator, optimiser, exploration.
+        storage: the run directory.
+        streams: random streams (same seed → same run).
+        num_trials: learning trials after the exploration rollout.
+    """
+
+    def __init__(
+        self,
+        components: Components,
+        storage: RunDirectory,
+        streams: RandomStreams,
+        num_trials: int,
+    ) -> None:
+        self.c = components
+        self.storage = storage
+        self.streams = streams
+        self.num_trials = num_trials
+        like = next(components.policy.parameters())
+        system = components.system
+        self.rollout = ParticleRollout(
+            model=components.model,
+            policy=components.policy,
+            cost=components.cost,
+            estimator=components.estimator,
+            initial_mean=torch.as_tensor(system.initial_mean, dtype=like.dtype, device=like.device),
+            initial_std=torch.as_tensor(system.initial_std, dtype=like.dtype, device=like.device),
+            horizon=system.num_steps,
+        )
+        self.trajectories: list[Trajectory] = []
+
+    def run(
+        self,
+        on_step: Callable[[int, StepInfo], None] | None = None,
+        on_trial: Callable[[dict[str, Any]], None] | None = None,
+    ) -> pd.DataFrame:
+        """Algorithm 1. Returns the per-trial summary (also in ``summary.csv``)."""
+        table = self._record(0, self._interact(self.c.exploration(rng=self.streams.system)), {})
+        if on_trial is not None:
+            on_trial(table.iloc[-1].to_dict())
+        for trial in range(1, self.num_trials + 1):
+            fit = self._learn_model(trial)
+            start = time.perf_counter()
+            result = self.c.optimizer.optimize(
+                self.rollout,
+                trial,
+                self.streams.particles,
+                None if on_step is None else (lambda info, k=trial: on_step(k, info)),
+            )
+            optimization_seconds = time.perf_counter() - start
+            self.storage.save_optimization_trace(
+                trial,
+                {
+                    "cost": result.costs,
+                    "dropout": result.dropouts,
+                    "learning_rate": result.learning_rates,
+                    "signal": result.signals,
+                },
+            )
+            controller = PolicyController(self.c.policy, self.c.model, self.c.estimator)
+            trajectory = self._interact(controller)
+            self.storage.save_checkpoint(trial, "policy", self.c.policy.state_dict())
+            assert self.c.model.gp is not None
+            self.storage.save_checkpoint(trial, "model", self.c.model.gp.state_dict())
+            row = {
+                "gp_samples": fit.num_samples,
+                "gp_kept": fit.num_kept,
+                "gp_nll": fit.negative_log_likelihood,
+                "fit_seconds": fit.seconds,
+                "optimization_steps": result.steps,
+                "optimization_seconds": optimization_seconds,
+                "final_particle_cost": result.costs[-1] if result.costs else float("nan"),
+                "policy_restarts": result.restarts,
+            }
+            table = self._record(trial, trajectory, row)
+            if on_trial is not None:
+                on_trial(table.iloc[-1].to_dict())
+        return table
+
+    def _learn_model(self, trial: int) -> Any:
+        """Step 1: train the GPs on all data so far (offline state estimates)."""
+        estimator, dt = self.c.estimator, self.c.system.dt
+        states = [estimator.offline(t.measurements, dt) for t in self.trajectories]
+        actions = [t.actions for t in self.trajectories]
+        try:
+            return self.c.model.fit(states, actions)
+        except NotPositiveDefiniteError as error:
+            raise NotPositiveDefiniteError(
+                f"trial {trial}: {error} (trials 0..{trial - 1} are saved in {self.storage.path})"
+            ) from error
+
+    def _interact(self, controller: Controller) -> Trajectory:
+        """Step 3: run a controller on the system from a fresh x0 ~ p(x0)."""
+        system, rng = self.c.system, self.streams.system
+        trajectory = system.rollout(
+            controller, system.sample_initial_state(rng), system.num_steps, rng
+        )
+        self.trajectories.append(trajectory)
+        return trajectory
+
+    def _record(self, trial: int, trajectory: Trajectory, extra: dict[str, Any]) -> pd.DataFrame:
+        self.storage.save_trajectory(trial, trajectory)
+        row: dict[str, Any] = {"trial": trial, **self.c.system.evaluate(trajectory), **extra}
+        row["timestamp"] = time.time()
+        table = self.storage.append_summary(row)
+        log.info("trial %d: %s", trial, {k: row[k] for k in row if k != "timestamp"})
+        return table

@@ -1,0 +1,1 @@
+"""Command-line entry points (thin: build from config, run, report)."""

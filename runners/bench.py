@@ -1,0 +1,185 @@
+"""Performance figures: ``make bench`` (or ``python -m runners.bench``).
+
+Prints, for one policy-optimisation step (particle rollout + backward + Adam) of the
+cart-pole speed-integration SE model at M=400, T=60, n_b=200:
+the median wall time over ``--steps`` steps after warm-up for n = 60 and n = 300 training
+points in float64 and float32, the rollout's achieved GFLOP/s (flops counted analytically
+from the dominant products, see :func:`rollout_flops`), the machine's own float64 matmul
+GFLOP/s measured in the same run, and the GP fit time at n = 300 against the reference
+recipe (1500 full-batch Adam steps at learning rate 0.01).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from hydra import compose, initialize_config_dir
+
+from mcpilco.build import build
+from mcpilco.optim.policy_optimizer import frozen
+from mcpilco.optim.rollout import ParticleRollout
+from runners.process import keep_freed_memory
+
+CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
+log = logging.getLogger("mcpilco.bench")
+
+
+def matmul_gflops(size: int = 1000, repeats: int = 10) -> float:
+    """Best-of float64 GEMM throughput of this machine (GFLOP/s)."""
+    a = torch.randn(size, size, dtype=torch.float64)
+    b = torch.randn(size, size, dtype=torch.float64)
+    a @ b
+    best = float("inf")
+    for _ in range(repeats):
+        start = time.perf_counter()
+        a @ b
+        best = min(best, time.perf_counter() - start)
+    return 2.0 * size**3 / best / 1e9
+
+
+def rollout_flops(
+    particles: int, horizon: int, n: int, outputs: int, gp_dim: int, basis: int, policy_dim: int
+) -> float:
+    """Floating-point operations of one rollout + backward, dominant products only.
+
+    Per step, forward: kernel 2GMND, k*Γ⁻¹ 2GMN², mean 2GMN, quadratic 2GMN, policy
+    distances 2M n_b d + output 2M n_b; backward: kernel 2GMND, policy 3 products of
+    2M n_b d. Element-wise work (exp, masks) is not counted.
+    """
+    g, m = outputs, particles
+    forward = 2 * g * m * n * gp_dim + 2 * g * m * n * n + 4 * g * m * n
+    forward += 2 * m * basis * policy_dim + 2 * m * basis
+    backward = 2 * g * m * n * gp_dim + 3 * 2 * m * basis * policy_dim + 2 * g * m * n
+    return float(horizon * (forward + backward))
+
+
+def exploration_data(experiment, n: int, seed: int = 0):  # type: ignore[no-untyped-def]
+    system = experiment.components.system
+    rng = np.random.default_rng(seed)
+    trajectories = []
+    while sum(t.num_steps for t in trajectories) < n:
+        controller = experiment.components.exploration(rng=rng)
+        trajectories.append(
+            system.rollout(controller, system.sample_initial_state(rng), system.num_steps, rng)
+        )
+    states = [t.measurements for t in trajectories]
+    actions = [t.actions for t in trajectories]
+    return states, actions
+
+
+def time_steps(dtype: str, n: int, steps: int, warmup: int) -> tuple[float, float]:
+    """Median seconds per optimisation step and achieved GFLOP/s."""
+    with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
+        cfg = compose("train", overrides=[f"dtype={dtype}", "kernel=se", "model=speed_integration"])
+    experiment = build(cfg)
+    c = experiment.components
+    states, actions = exploration_data(experiment, n)
+    c.model.fit(states, actions)
+    assert c.model.gp is not None
+    if c.model.gp.train_inputs.shape[0] != n:  # trim to exactly n points
+        c.model.gp.set_data(c.model.gp.train_inputs[:n], c.model.gp.train_targets[:n])
+        c.model.gp.precompute()
+    like = next(c.policy.parameters())
+    rollout = ParticleRollout(
+        c.model,
+        c.policy,
+        c.cost,
+        c.estimator,
+        torch.as_tensor(c.system.initial_mean, dtype=like.dtype),
+        torch.as_tensor(c.system.initial_std, dtype=like.dtype),
+        c.system.num_steps,
+    )
+    optimizer = torch.optim.Adam(c.policy.parameters(), lr=0.01)
+    particles = c.optimizer.num_particles
+    times = []
+    with frozen(c.model):
+        for step in range(warmup + steps):
+            start = time.perf_counter()
+            optimizer.zero_grad(set_to_none=True)
+            rollout(particles, 0.25, experiment.streams.particles).total_cost.backward()
+            optimizer.step()
+            if step >= warmup:
+                times.append(time.perf_counter() - start)
+    median = statistics.median(times)
+    flops = rollout_flops(
+        particles,
+        c.system.num_steps,
+        n,
+        c.model.num_outputs,
+        c.model.gp_input_dim,
+        c.policy.num_basis,
+        c.model.policy_input_dim,
+    )
+    return median, flops / median / 1e9
+
+
+def fit_comparison(n: int = 300) -> dict[str, float]:
+    """Our L-BFGS fit against 1500 full-batch Adam steps at lr 0.01 (reference recipe)."""
+    with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
+        cfg = compose("train", overrides=["kernel=se", "model=speed_integration"])
+    experiment = build(cfg)
+    model = experiment.components.model
+    states, actions = exploration_data(experiment, n)
+    start = time.perf_counter()
+    report = model.fit(states, actions)
+    ours = time.perf_counter() - start
+    assert model.gp is not None
+    reference = model.new_gp()
+    reference.set_data(model.gp.train_inputs, model.gp.train_targets)
+    adam = torch.optim.Adam([p for p in reference.parameters() if p.requires_grad], lr=0.01)
+    start = time.perf_counter()
+    for _ in range(1500):
+        adam.zero_grad()
+        loss = reference.negative_log_marginal_likelihood()
+        loss.backward()
+        adam.step()
+    adam_seconds = time.perf_counter() - start
+    with torch.no_grad():
+        adam_nll = float(reference.negative_log_marginal_likelihood())
+    return {
+        "lbfgs_seconds": ours,
+        "lbfgs_nll_per_point": report.negative_log_likelihood,
+        "adam_seconds": adam_seconds,
+        "adam_nll_per_point": adam_nll,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--steps", type=int, default=15, help="timed steps per setting")
+    parser.add_argument("--warmup", type=int, default=3, help="untimed steps first")
+    parser.add_argument("--threads", type=int, default=None, help="torch threads")
+    parser.add_argument("--skip-fit", action="store_true", help="skip the GP fit comparison")
+    args = parser.parse_args()
+    keep_freed_memory()
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    logging.basicConfig(level=logging.WARNING)
+    print(f"torch {torch.__version__}, threads {torch.get_num_threads()}")  # noqa: T201
+    print(f"machine float64 matmul: {matmul_gflops():.1f} GFLOP/s")  # noqa: T201
+    print("policy-optimisation step, M=400 T=60 n_b=200, speed-integration SE:")  # noqa: T201
+    for n in (60, 300):
+        for dtype in ("float64", "float32"):
+            seconds, gflops = time_steps(dtype, n, args.steps, args.warmup)
+            print(  # noqa: T201
+                f"  n={n:3d} {dtype}: median {seconds * 1e3:7.1f} ms/step over {args.steps} "
+                f"steps, rollout {gflops:5.2f} GFLOP/s"
+            )
+    print(f"machine float64 matmul (again): {matmul_gflops():.1f} GFLOP/s")  # noqa: T201
+    if not args.skip_fit:
+        fit = fit_comparison()
+        print(  # noqa: T201
+            f"GP fit n=300: L-BFGS {fit['lbfgs_seconds']:.2f} s, -log p/N "
+            f"{fit['lbfgs_nll_per_point']:.4f}; 1500 Adam steps lr 0.01: "
+            f"{fit['adam_seconds']:.2f} s, -log p/N {fit['adam_nll_per_point']:.4f}"
+        )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,56 @@
+"""Train a policy with MC-PILCO: ``python -m runners.train system=cartpole kernel=sp``."""
+
+from __future__ import annotations
+
+import logging
+import sys
+from pathlib import Path
+
+import hydra
+from hydra.core.hydra_config import HydraConfig
+from omegaconf import DictConfig, OmegaConf
+from tqdm import tqdm
+
+from mcpilco.build import build
+from mcpilco.errors import ConfigError
+from mcpilco.optim.policy_optimizer import StepInfo
+from mcpilco.run_storage import RunDirectory
+from mcpilco.trial_loop import TrialLoop
+from runners.process import keep_freed_memory
+
+CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
+log = logging.getLogger("mcpilco.train")
+
+
+@hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="train")
+def main(cfg: DictConfig) -> None:
+    keep_freed_memory()
+    try:
+        experiment = build(cfg)
+    except ConfigError as error:
+        log.error("configuration error: %s", error)
+        sys.exit(2)
+    storage = RunDirectory(HydraConfig.get().runtime.output_dir)
+    storage.write_text("config.yaml", OmegaConf.to_yaml(cfg, resolve=True))
+    log.info("run directory: %s", storage.path)
+    loop = TrialLoop(experiment.components, storage, experiment.streams, experiment.num_trials)
+    bars: dict[int, tqdm] = {}
+
+    def on_step(trial: int, info: StepInfo) -> None:
+        if trial not in bars:
+            for bar in bars.values():
+                bar.close()
+            bars[trial] = tqdm(desc=f"trial {trial}/{experiment.num_trials}", unit="step")
+        bars[trial].update(1)
+        bars[trial].set_postfix(J=f"{info.cost:.3f}", p_d=info.dropout, lr=info.learning_rate)
+
+    try:
+        loop.run(on_step=on_step)
+    finally:
+        for bar in bars.values():
+            bar.close()
+    log.info("summary:\n%s", storage.summary().to_string(index=False))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,112 @@
+"""Kernels: closed forms, symmetry, positive semi-definiteness and gradients."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from torch.autograd import gradcheck
+
+from mcpilco.kernels import (
+    KernelShape,
+    Linear,
+    MultiplicativePolynomial,
+    PhysicalBasis,
+    SquaredExponential,
+    Sum,
+)
+from mcpilco.kernels.se import _PreparedCross
+
+
+def basis(x: torch.Tensor) -> torch.Tensor:
+    """A two-output toy basis [G=2, N, P=3]."""
+    return torch.stack(
+        [
+            torch.stack([x[:, 0] * x[:, 1], torch.sin(x[:, 2]), x[:, 0]], -1),
+            torch.stack([x[:, 1] ** 2, torch.cos(x[:, 0]), x[:, 2]], -1),
+        ]
+    )
+
+
+SHAPE = KernelShape(num_outputs=2, input_dim=3, basis=basis)
+
+KERNELS = {
+    "se": lambda: SquaredExponential(SHAPE, lengthscale=[0.5, 1.0, 2.0], variance=2.0),
+    "poly2": lambda: MultiplicativePolynomial(SHAPE, degree=2, offset=0.5, weight=[0.3, 0.2, 0.1]),
+    "linear_subset": lambda: Linear(SHAPE, weight=[0.5, 2.0], active_dims=[0, 2]),
+    "physical": lambda: PhysicalBasis(SHAPE, weight=[1.0, 0.5, 0.2]),
+    "sp": lambda: Sum(SHAPE, [lambda s: PhysicalBasis(s), lambda s: SquaredExponential(s)]),
+    "se_p2": lambda: Sum(
+        SHAPE, [lambda s: SquaredExponential(s), lambda s: MultiplicativePolynomial(s, degree=2)]
+    ),
+}
+
+
+@pytest.fixture
+def inputs(generator: torch.Generator) -> torch.Tensor:
+    return torch.randn(12, 3, generator=generator, dtype=torch.float64)
+
+
+@pytest.mark.parametrize("name", sorted(KERNELS))
+def test_symmetric_psd_and_diag(name: str, inputs: torch.Tensor) -> None:
+    kernel = KERNELS[name]()
+    gram = kernel(inputs, inputs).detach()
+    assert gram.shape == (2, 12, 12)
+    torch.testing.assert_close(gram, gram.transpose(-1, -2))
+    assert torch.linalg.eigvalsh(gram).min() > -1e-9 * gram.abs().max()
+    torch.testing.assert_close(kernel.diag(inputs), torch.diagonal(gram, dim1=-2, dim2=-1))
+
+
+@pytest.mark.parametrize("name", sorted(KERNELS))
+def test_prepared_kernel_equals_forward(name: str, inputs: torch.Tensor) -> None:
+    kernel = KERNELS[name]()
+    cross, prior = kernel.prepare(inputs[:5])(inputs)
+    torch.testing.assert_close(cross, kernel(inputs, inputs[:5]))
+    torch.testing.assert_close(prior, kernel.diag(inputs))
+
+
+@pytest.mark.parametrize("name", sorted(KERNELS))
+def test_gradcheck_inputs_and_hyperparameters(name: str, inputs: torch.Tensor) -> None:
+    kernel = KERNELS[name]()
+    x1 = inputs[:4].clone().requires_grad_()
+    x2 = inputs[4:7].clone().requires_grad_()
+    assert gradcheck(lambda a, b: kernel(a, b), (x1, x2))
+    names = [n for n, p in kernel.named_parameters() if p.requires_grad]
+    values = tuple(kernel.get_parameter(n).detach().clone().requires_grad_() for n in names)
+
+    def gram_of(*hyper: torch.Tensor) -> torch.Tensor:
+        return torch.func.functional_call(
+            kernel, dict(zip(names, hyper, strict=True)), (inputs[:4], inputs[4:7])
+        )
+
+    assert gradcheck(gram_of, values)
+
+
+def test_se_matches_numpy(inputs: torch.Tensor) -> None:
+    kernel = KERNELS["se"]()
+    x = inputs.numpy()
+    diff = (x[:, None] - x[None]) / np.array([0.5, 1.0, 2.0])
+    expected = 2.0 * np.exp(-(diff**2).sum(-1))
+    np.testing.assert_allclose(kernel(inputs, inputs)[1].detach().numpy(), expected, rtol=1e-12)
+
+
+def test_polynomial_matches_explicit_product(inputs: torch.Tensor) -> None:
+    kernel = KERNELS["poly2"]()
+    x = inputs.numpy()
+    weight = np.array([0.3, 0.2, 0.1])
+    expected = (0.5 + (x * weight) @ x.T) ** 2
+    np.testing.assert_allclose(kernel(inputs, inputs)[0].detach().numpy(), expected, rtol=1e-12)
+
+
+def test_linear_subset_ignores_other_inputs(inputs: torch.Tensor) -> None:
+    kernel = KERNELS["linear_subset"]()
+    moved = inputs.clone()
+    moved[:, 1] += 5.0
+    torch.testing.assert_close(kernel(inputs, inputs), kernel(moved, moved))
+
+
+def test_se_prepared_cross_gradcheck(generator: torch.Generator) -> None:
+    z = torch.randn(2, 5, 3, generator=generator, dtype=torch.float64, requires_grad=True)
+    twice_z2_t = torch.randn(2, 3, 4, generator=generator, dtype=torch.float64)
+    offset = torch.randn(2, 1, 4, generator=generator, dtype=torch.float64)
+    assert gradcheck(lambda a: _PreparedCross.apply(a, twice_z2_t, offset), (z,))

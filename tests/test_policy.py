@@ -1,0 +1,75 @@
+"""Squashed-RBF policy: formula, bound, dropout statistics and hand-written gradient."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from torch.autograd import gradcheck
+
+from mcpilco.policies import SquashedRBFPolicy, UniformRandomExploration
+from mcpilco.policies.rbf import _SquashedRBF
+
+
+def make_policy(generator: torch.Generator, u_max: float = 3.0) -> SquashedRBFPolicy:
+    return SquashedRBFPolicy(4, 2, u_max, num_basis=20, lengthscale=0.8, generator=generator)
+
+
+def test_matches_numpy_formula(generator: torch.Generator) -> None:
+    policy = make_policy(generator)
+    x = torch.randn(6, 4, generator=generator, dtype=torch.float64)
+    centres, weights = policy.centres.detach().numpy(), policy.weights.detach().numpy()
+    ell = np.exp(policy.log_lengthscale.detach().numpy())
+    distances = (((x.numpy()[:, None, :] - centres[None]) / ell) ** 2).sum(-1)
+    expected = 3.0 * np.tanh(np.exp(-distances) @ weights / 3.0)
+    np.testing.assert_allclose(policy(x).detach().numpy(), expected, rtol=1e-12)
+
+
+def test_output_bounded_by_u_max(generator: torch.Generator) -> None:
+    policy = make_policy(generator, u_max=2.5)
+    with torch.no_grad():
+        policy.weights.mul_(1e6)
+    x = 3.0 * torch.randn(500, 4, generator=generator, dtype=torch.float64)
+    actions = policy(x)
+    assert actions.abs().max() <= 2.5
+    assert actions.abs().max() > 2.4  # saturates, not clipped to something smaller
+
+
+def test_dropout_rate_and_scaling(generator: torch.Generator) -> None:
+    policy = make_policy(generator)
+    bits = policy.dropout_bits(50, 400, generator)
+    for probability in (0.25, 0.125):
+        dropped = (bits < round(256 * probability)).double().mean()
+        assert float(dropped) == pytest.approx(probability, abs=0.005)
+    # The expected pre-squash output under dropout equals the deterministic one.
+    x = torch.randn(1, 4, generator=generator, dtype=torch.float64).expand(20000, 4)
+    many_bits = policy.dropout_bits(1, 20000, generator)[0]
+    with torch.no_grad():
+        policy.weights.mul_(1e-3)  # stay in tanh's linear range
+        mean_dropped = policy(x, many_bits, 0.25).mean(0)
+        deterministic = policy(x[:1])[0]
+    scale = float(deterministic.abs().max())
+    torch.testing.assert_close(mean_dropped, deterministic, atol=0.05 * scale, rtol=0.0)
+
+
+def test_gradcheck_fused_policy(generator: torch.Generator) -> None:
+    dtype = torch.float64
+    x = torch.randn(7, 3, generator=generator, dtype=dtype, requires_grad=True)
+    inverse = (0.5 + torch.rand(3, generator=generator, dtype=dtype)).requires_grad_()
+    centres = torch.randn(5, 3, generator=generator, dtype=dtype, requires_grad=True)
+    weights = torch.randn(5, 2, generator=generator, dtype=dtype, requires_grad=True)
+    bits = torch.randint(0, 256, (7, 5), generator=generator, dtype=torch.uint8)
+    for mask_bits, threshold in ((bits, 64), (None, 0)):
+        assert gradcheck(
+            lambda *a, b=mask_bits, k=threshold: _SquashedRBF.apply(*a, b, k, 3.0),
+            (x, inverse, centres, weights),
+        )
+
+
+def test_exploration_is_uniform_and_bounded() -> None:
+    explore = UniformRandomExploration(u_max=10.0, action_dim=1, rng=np.random.default_rng(0))
+    actions = np.array([explore(np.zeros(4), t) for t in range(4000)])
+    assert actions.shape == (4000, 1)
+    assert np.abs(actions).max() <= 10.0
+    assert actions.mean() == pytest.approx(0.0, abs=0.3)
+    assert actions.var() == pytest.approx(100.0 / 3.0, rel=0.08)

@@ -1,0 +1,107 @@
+"""The real runner, end to end, with tiny settings."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+import torch
+from omegaconf import OmegaConf
+
+from mcpilco.errors import NotPositiveDefiniteError
+from mcpilco.run_storage import RunDirectory
+
+ROOT = Path(__file__).resolve().parent.parent
+TINY = [
+    "num_trials=2",
+    "threads=1",
+    "optimizer.num_particles=8",
+    "optimizer.max_steps=4",
+    "optimizer.max_steps_first_trial=4",
+    "policy.num_basis=10",
+    "system.trial_duration=1.0",
+]
+
+
+def run_train(*overrides: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "runners.train", *overrides],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+@pytest.mark.parametrize("kernel", ["sp"])
+def test_smoke_run_finishes_in_under_a_minute(tmp_path: Path, kernel: str) -> None:
+    start = time.perf_counter()
+    result = run_train(*TINY, f"kernel={kernel}", f"hydra.run.dir={tmp_path}")
+    elapsed = time.perf_counter() - start
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert elapsed < 60
+    summary = pd.read_csv(tmp_path / "summary.csv")
+    assert summary["trial"].tolist() == [0, 1, 2]
+    assert summary.loc[1:, "optimization_steps"].tolist() == [4, 4]
+    assert {"eval_cost", "success", "fit_seconds", "optimization_seconds"} <= set(summary.columns)
+    config = OmegaConf.load(tmp_path / "config.yaml")
+    assert config.optimizer.num_particles == 8 and config.kernel.terms[0]._target_.endswith(
+        "PhysicalBasis"
+    )
+    run = RunDirectory(tmp_path)
+    policy = run.load_checkpoint(2, "policy")
+    assert policy["centres"].shape == (10, 5)
+    model = run.load_checkpoint(2, "model")
+    assert model["train_inputs"].shape == (40, 6)  # 2 trajectories of 20 steps before trial 2
+    trajectory = run.load_trajectory(2)
+    assert trajectory.states.shape == (21, 4) and trajectory.actions.shape == (20, 1)
+    trace = pd.read_csv(tmp_path / "optimization" / "trial_01.csv")
+    assert list(trace.columns) == ["step", "cost", "dropout", "learning_rate", "signal"]
+
+
+def test_bad_value_exits_with_one_line_error(tmp_path: Path) -> None:
+    result = run_train("optimizer.num_particles=0", f"hydra.run.dir={tmp_path}")
+    assert result.returncode == 2
+    errors = [line for line in (result.stdout + result.stderr).splitlines() if "ERROR" in line]
+    assert len(errors) == 1 and "optimizer.num_particles" in errors[0]
+    assert not (tmp_path / "summary.csv").exists()
+
+
+def test_unknown_option_shows_hydra_choices(tmp_path: Path) -> None:
+    result = run_train("kernel=nope", f"hydra.run.dir={tmp_path}")
+    assert result.returncode != 0
+    assert "Available options" in result.stderr and "se_p2" in result.stderr
+
+
+def test_failed_model_fit_names_the_trial_and_keeps_finished_trials(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from hydra import compose, initialize_config_dir
+
+    from mcpilco.build import build
+    from mcpilco.models.base import ModelStructure
+    from mcpilco.trial_loop import TrialLoop
+
+    with initialize_config_dir(version_base="1.3", config_dir=str(ROOT / "conf")):
+        cfg = compose("train", overrides=TINY[:-1] + ["system.trial_duration=0.5"])
+    experiment = build(cfg)
+    calls = {"count": 0}
+    original = ModelStructure.fit
+
+    def failing_fit(self, states, actions):  # type: ignore[no-untyped-def]
+        calls["count"] += 1
+        if calls["count"] == 2:
+            raise NotPositiveDefiniteError("GP outputs ['d_x1', 'd_x3']: not positive definite")
+        return original(self, states, actions)
+
+    monkeypatch.setattr(ModelStructure, "fit", failing_fit)
+    loop = TrialLoop(experiment.components, RunDirectory(tmp_path), experiment.streams, 2)
+    with pytest.raises(NotPositiveDefiniteError, match=r"trial 2: GP outputs \['d_x1', 'd_x3'\]"):
+        loop.run()
+    assert pd.read_csv(tmp_path / "summary.csv")["trial"].tolist() == [0, 1]
+    assert (tmp_path / "checkpoints" / "trial_01" / "policy.pt").exists()
+    torch.load(tmp_path / "checkpoints" / "trial_01" / "model.pt", weights_only=True)
