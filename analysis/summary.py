@@ -60,9 +60,7 @@ def load_runs(paths: Iterable[Path]) -> pd.DataFrame:
 
 def markdown(table: pd.DataFrame) -> str:
     """The README table: one row per run."""
-    trials = sorted(
-        int(c.removeprefix("cost_T")) for c in table.columns if c.startswith("cost_T")
-    )
+    trials = sorted(int(c.removeprefix("cost_T")) for c in table.columns if c.startswith("cost_T"))
     header = ["kernel", "seed", "first success"] + [f"cost T{t}" for t in trials] + ["wall (min)"]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for row in table.sort_values(["kernel", "seed"]).itertuples():

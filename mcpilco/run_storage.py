@@ -7,6 +7,7 @@ Checkpoints hold state dicts of tensors only and are read with ``weights_only=Tr
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -76,6 +77,30 @@ class RunDirectory:
     def load_checkpoint(self, trial: int, name: str) -> dict[str, torch.Tensor]:
         path = self.path / "checkpoints" / f"trial_{trial:02d}" / f"{name}.pt"
         return torch.load(path, map_location="cpu", weights_only=True)
+
+    def save_random_state(self, trial: int, state: Mapping[str, Any]) -> None:
+        """Generator states after ``trial`` (numpy's as JSON, torch's as tensors)."""
+        folder = self.path / "checkpoints" / f"trial_{trial:02d}"
+        tensors = {k: v for k, v in state.items() if isinstance(v, torch.Tensor)}
+        others = {k: v for k, v in state.items() if not isinstance(v, torch.Tensor)}
+        self._write(folder / "random.pt", lambda p: torch.save(tensors, p))
+        self._write(folder / "random.json", lambda p: p.write_text(json.dumps(others)))
+
+    def load_random_state(self, trial: int) -> dict[str, Any]:
+        folder = self.path / "checkpoints" / f"trial_{trial:02d}"
+        state: dict[str, Any] = json.loads((folder / "random.json").read_text())
+        state.update(torch.load(folder / "random.pt", map_location="cpu", weights_only=True))
+        return state
+
+    def finished_trials(self) -> int:
+        """Number of the last trial whose files are all on disk (−1 when none)."""
+        path = self.path / "summary.csv"
+        if not path.exists():
+            return -1
+        trials = pd.read_csv(path)["trial"].tolist()
+        if trials != list(range(len(trials))):
+            raise ValueError(f"{path}: trials {trials} are not 0, 1, 2, ...")
+        return len(trials) - 1
 
     def append_summary(self, row: Mapping[str, Any]) -> pd.DataFrame:
         """Add one trial's row to ``summary.csv`` and return the whole table."""

@@ -26,3 +26,17 @@ class RandomStreams:
         particles = torch.Generator(device=device)
         particles.manual_seed(int(particle_seq.generate_state(1, np.uint64)[0] >> 1))
         return cls(np.random.default_rng(system_seq), policy_init, particles)
+
+    def state(self) -> dict[str, object]:
+        """Every generator's state (torch states as uint8 tensors, numpy's as a dict)."""
+        return {
+            "system": self.system.bit_generator.state,
+            "policy_init": self.policy_init.get_state(),
+            "particles": self.particles.get_state(),
+        }
+
+    def restore(self, state: dict[str, object]) -> None:
+        """Continue exactly where :meth:`state` was taken."""
+        self.system.bit_generator.state = state["system"]
+        self.policy_init.set_state(state["policy_init"])  # type: ignore[arg-type]
+        self.particles.set_state(state["particles"])  # type: ignore[arg-type]

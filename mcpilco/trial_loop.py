@@ -82,11 +82,21 @@ class TrialLoop:
         on_step: Callable[[int, StepInfo], None] | None = None,
         on_trial: Callable[[dict[str, Any]], None] | None = None,
     ) -> pd.DataFrame:
-        """Algorithm 1. Returns the per-trial summary (also in ``summary.csv``)."""
-        table = self._record(0, self._interact(self.c.exploration(rng=self.streams.system)), {})
-        if on_trial is not None:
-            on_trial(table.iloc[-1].to_dict())
-        for trial in range(1, self.num_trials + 1):
+        """Algorithm 1. Returns the per-trial summary (also in ``summary.csv``).
+
+        If the run directory already holds finished trials (a killed run), the loop
+        continues after the last one with its data, policy and random-generator states,
+        so the resumed run equals an uninterrupted one.
+        """
+        first = self._restore()
+        if first == 0:
+            exploration = self._interact(self.c.exploration(rng=self.streams.system))
+            table = self._record(0, exploration, {})
+            if on_trial is not None:
+                on_trial(table.iloc[-1].to_dict())
+            first = 1
+        table = self.storage.summary()
+        for trial in range(first, self.num_trials + 1):
             fit = self._learn_model(trial)
             start = time.perf_counter()
             result = self.c.optimizer.optimize(
@@ -125,6 +135,18 @@ class TrialLoop:
                 on_trial(table.iloc[-1].to_dict())
         return table
 
+    def _restore(self) -> int:
+        """Load the finished trials of an interrupted run; return the next trial."""
+        last = self.storage.finished_trials()
+        if last < 0:
+            return 0
+        self.trajectories = [self.storage.load_trajectory(k) for k in range(last + 1)]
+        if last >= 1:
+            self.c.policy.load_state_dict(self.storage.load_checkpoint(last, "policy"))
+        self.streams.restore(self.storage.load_random_state(last))
+        log.info("resuming %s after trial %d", self.storage.path, last)
+        return last + 1
+
     def _learn_model(self, trial: int) -> Any:
         """Step 1: train the GPs on all data so far (offline state estimates)."""
         estimator, dt = self.c.estimator, self.c.system.dt
@@ -150,6 +172,7 @@ class TrialLoop:
         self.storage.save_trajectory(trial, trajectory)
         row: dict[str, Any] = {"trial": trial, **self.c.system.evaluate(trajectory), **extra}
         row["timestamp"] = time.time()
-        table = self.storage.append_summary(row)
+        self.storage.save_random_state(trial, self.streams.state())
+        table = self.storage.append_summary(row)  # last: the row marks the trial finished
         log.info("trial %d: %s", trial, {k: row[k] for k in row if k != "timestamp"})
         return table

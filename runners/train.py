@@ -22,15 +22,35 @@ CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.train")
 
 
+def resolve_resume(cfg: DictConfig) -> tuple[DictConfig, Path]:
+    """The config and directory to run in: Hydra's, or those of the run to resume.
+
+    A resumed run keeps its saved config; only ``num_trials`` (to extend the run) and
+    ``threads``/``device`` (the machine) are taken from the command line.
+    """
+    if cfg.get("resume") is None:
+        return cfg, Path(HydraConfig.get().runtime.output_dir)
+    run_dir = Path(cfg.resume).expanduser().resolve()
+    if not (run_dir / "config.yaml").is_file():
+        raise ConfigError(f"resume={cfg.resume!r} holds no config.yaml")
+    saved = OmegaConf.load(run_dir / "config.yaml")
+    assert isinstance(saved, DictConfig)
+    for key in ("num_trials", "threads", "device"):
+        saved[key] = cfg[key]
+    saved.resume = str(run_dir)
+    return saved, run_dir
+
+
 @hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="train")
 def main(cfg: DictConfig) -> None:
     keep_freed_memory()
     try:
+        cfg, run_dir = resolve_resume(cfg)
         experiment = build(cfg)
     except ConfigError as error:
         log.error("configuration error: %s", error)
         sys.exit(2)
-    storage = RunDirectory(HydraConfig.get().runtime.output_dir)
+    storage = RunDirectory(run_dir)
     storage.write_text("config.yaml", OmegaConf.to_yaml(cfg, resolve=True))
     log.info("run directory: %s", storage.path)
     loop = TrialLoop(experiment.components, storage, experiment.streams, experiment.num_trials)

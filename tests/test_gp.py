@@ -66,7 +66,7 @@ def test_marginal_likelihood_matches_scipy() -> None:
 
 def test_fit_improves_likelihood_and_beats_adam_recipe() -> None:
     gp, _, _ = make_gp()
-    before = float(gp.negative_log_marginal_likelihood())
+    before = float(gp.negative_log_marginal_likelihood().detach())
     after = MarginalLikelihoodFit(max_iterations=100)(gp)
     assert after < before
     reference, _, _ = make_gp()

@@ -105,3 +105,17 @@ def test_failed_model_fit_names_the_trial_and_keeps_finished_trials(
     assert pd.read_csv(tmp_path / "summary.csv")["trial"].tolist() == [0, 1]
     assert (tmp_path / "checkpoints" / "trial_01" / "policy.pt").exists()
     torch.load(tmp_path / "checkpoints" / "trial_01" / "model.pt", weights_only=True)
+
+
+def test_resume_continues_exactly_like_an_uninterrupted_run(tmp_path: Path) -> None:
+    whole, part = tmp_path / "whole", tmp_path / "part"
+    assert run_train(*TINY, f"hydra.run.dir={whole}").returncode == 0
+    first = run_train(*TINY, "num_trials=1", f"hydra.run.dir={part}")
+    assert first.returncode == 0
+    resumed = run_train("num_trials=2", f"resume={part}", f"hydra.run.dir={tmp_path / 'other'}")
+    assert resumed.returncode == 0, resumed.stderr[-2000:]
+    expected = pd.read_csv(whole / "summary.csv").drop(columns=["timestamp"])
+    got = pd.read_csv(part / "summary.csv").drop(columns=["timestamp"])
+    assert got["trial"].tolist() == [0, 1, 2]
+    timing = ["fit_seconds", "optimization_seconds"]
+    pd.testing.assert_frame_equal(got.drop(columns=timing), expected.drop(columns=timing))
