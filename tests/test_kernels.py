@@ -106,7 +106,8 @@ def test_linear_subset_ignores_other_inputs(inputs: torch.Tensor) -> None:
 
 
 def test_se_prepared_cross_gradcheck(generator: torch.Generator) -> None:
-    z = torch.randn(2, 5, 3, generator=generator, dtype=torch.float64, requires_grad=True)
+    x = torch.randn(5, 3, generator=generator, dtype=torch.float64, requires_grad=True)
+    inverse = 0.5 + torch.rand(2, 1, 3, generator=generator, dtype=torch.float64)
     twice_z2_t = torch.randn(2, 3, 4, generator=generator, dtype=torch.float64)
     offset = torch.randn(2, 1, 4, generator=generator, dtype=torch.float64)
-    assert gradcheck(lambda a: _PreparedCross.apply(a, twice_z2_t, offset), (z,))
+    assert gradcheck(lambda a: _PreparedCross.apply(a, inverse, twice_z2_t, offset), (x,))

@@ -79,3 +79,9 @@ def test_fit_then_step_learns_a_linear_system(generator: torch.Generator) -> Non
     action = torch.as_tensor(actions[0][5:6])
     predicted = model.step(probe, action, torch.zeros(2, 1, dtype=torch.float64))
     assert float((predicted - torch.as_tensor(states[0][6:7])).abs().max()) < 1e-3
+
+
+def test_angle_feature_gradient(generator: torch.Generator) -> None:
+    features = AngleFeatures(4, [2]).to(torch.float64)
+    x = torch.randn(6, 4, generator=generator, dtype=torch.float64, requires_grad=True)
+    assert torch.autograd.gradcheck(features.encode, (x,))

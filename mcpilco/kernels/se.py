@@ -20,29 +20,41 @@ from mcpilco.kernels.base import (
 
 
 class _PreparedCross(torch.autograd.Function):
-    """K = exp(z1 (2 z2)ᵀ − |z1|² − offset) ``[G, M, N]`` with a hand-written backward:
-    ∂K/∂z1 needs only K itself (h = g ⊙ K; g_z1 = h (2 z2) − 2 z1 Σ_n h), which saves
-    autograd's temporaries on the largest tensor of a rollout step. The training-side
-    arguments are constants (no gradient)."""
+    """K = exp(z1 (2 z2)ᵀ − |z1|² − offset) ``[G, M, N]`` with z1 = x1 ⊙ ι (inverse
+    length-scales ``[G, 1, D]``) and a hand-written backward: ∂K/∂z1 needs only K itself
+    (h = g ⊙ K; g_z1 = h (2 z2) − 2 z1 Σ_n h; g_x1 = Σ_G g_z1 ⊙ ι), which saves autograd's
+    temporaries on the largest tensor of a rollout step. Training-side arguments and ι
+    are constants (no gradient)."""
 
     @staticmethod
     def forward(
-        ctx: Any, z1: torch.Tensor, twice_z2_t: torch.Tensor, offset: torch.Tensor
+        ctx: Any,
+        x1: torch.Tensor,
+        inverse_lengthscale: torch.Tensor,
+        twice_z2_t: torch.Tensor,
+        offset: torch.Tensor,
     ) -> torch.Tensor:
-        exponent = torch.baddbmm(-offset, z1, twice_z2_t)
-        exponent.sub_(z1.square().sum(-1, keepdim=True))
-        covariance = exponent.exp_()
-        ctx.save_for_backward(z1, twice_z2_t, covariance)
+        z1 = x1 * inverse_lengthscale  # [G, M, D]
+        covariance = _PreparedCross.covariance(z1, twice_z2_t, offset)
+        ctx.save_for_backward(inverse_lengthscale, z1, twice_z2_t, covariance)
         return covariance
 
     @staticmethod
+    def covariance(
+        z1: torch.Tensor, twice_z2_t: torch.Tensor, offset: torch.Tensor
+    ) -> torch.Tensor:
+        exponent = torch.baddbmm(-offset, z1, twice_z2_t)
+        exponent.sub_(z1.square().sum(-1, keepdim=True))
+        return exponent.exp_()
+
+    @staticmethod
     @once_differentiable
-    def backward(ctx: Any, grad: torch.Tensor) -> tuple[torch.Tensor, None, None]:
-        z1, twice_z2_t, covariance = ctx.saved_tensors
+    def backward(ctx: Any, grad: torch.Tensor) -> tuple[torch.Tensor, None, None, None]:
+        inverse_lengthscale, z1, twice_z2_t, covariance = ctx.saved_tensors
         weighted = grad * covariance  # [G, M, N]
         grad_z1 = torch.matmul(weighted, twice_z2_t.transpose(-1, -2))
         grad_z1 -= 2.0 * z1 * weighted.sum(-1, keepdim=True)
-        return grad_z1, None, None
+        return (grad_z1 * inverse_lengthscale).sum(0), None, None, None
 
 
 class SquaredExponential(Kernel):
@@ -90,8 +102,12 @@ class SquaredExponential(Kernel):
         dims = self.active_dims
 
         def cross(x1: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-            z1 = select_dims(x1, dims) * inverse_lengthscale  # [G, M, D]
-            covariance = _PreparedCross.apply(z1, twice_z2_t.detach(), offset.detach())
+            covariance = _PreparedCross.apply(
+                select_dims(x1, dims),
+                inverse_lengthscale.detach(),
+                twice_z2_t.detach(),
+                offset.detach(),
+            )
             return covariance, prior_variance.expand(-1, x1.shape[-2])
 
         return cross
