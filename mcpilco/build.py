@@ -58,7 +58,7 @@ def check_top_level(cfg: DictConfig) -> tuple[torch.dtype, torch.device]:
     return DTYPES[cfg.dtype], resolve_device(cfg.device)
 
 
-def _make(node: Any, **kwargs: Any) -> Any:
+def make(node: Any, **kwargs: Any) -> Any:
     """``hydra.utils.instantiate`` that lets our one-line :class:`ConfigError` through
     instead of Hydra's multi-line wrapper."""
     try:
@@ -78,10 +78,10 @@ def build(cfg: DictConfig) -> Experiment:
     if cfg.get("threads") is not None:
         torch.set_num_threads(cfg.threads)
     streams = RandomStreams.from_seed(cfg.seed, device)
-    system = _make(cfg.system)
-    model = _make(cfg.model, system=system, kernel=_make(cfg.kernel))
+    system = make(cfg.system)
+    model = make(cfg.model, system=system, kernel=make(cfg.kernel))
     model.new_gp()  # builds a kernel now, so kernel errors surface before any work
-    policy = _make(cfg.policy)(
+    policy = make(cfg.policy)(
         input_dim=model.policy_input_dim,
         action_dim=system.action_dim,
         u_max=system.u_max,
@@ -91,9 +91,9 @@ def build(cfg: DictConfig) -> Experiment:
         system=system,
         model=model.to(dtype=dtype, device=device),
         policy=policy.to(dtype=dtype, device=device),
-        cost=_make(cfg.cost).to(dtype=dtype, device=device),
-        estimator=_make(cfg.estimator),
-        optimizer=_make(cfg.optimizer),
-        exploration=partial(_make(cfg.exploration), action_dim=system.action_dim),
+        cost=make(cfg.cost).to(dtype=dtype, device=device),
+        estimator=make(cfg.estimator),
+        optimizer=make(cfg.optimizer),
+        exploration=partial(make(cfg.exploration), action_dim=system.action_dim),
     )
     return Experiment(components, streams, cfg.num_trials, dtype, device)

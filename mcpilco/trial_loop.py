@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -16,12 +16,13 @@ from mcpilco.controller import PolicyController
 from mcpilco.errors import NotPositiveDefiniteError
 from mcpilco.estimators.base import StateEstimator
 from mcpilco.models.base import ModelStructure
-from mcpilco.optim.policy_optimizer import PolicyOptimizer, StepInfo
+from mcpilco.optim.policy_optimizer import PolicyOptimizer, StepInfo, frozen
 from mcpilco.optim.rollout import ParticleRollout
 from mcpilco.policies.rbf import SquashedRBFPolicy
 from mcpilco.run_storage import RunDirectory
 from mcpilco.seeding import RandomStreams
 from mcpilco.systems.base import Controller, MechanicalSystem
+from mcpilco.tracking.base import TrialObserver
 from mcpilco.trajectory import Trajectory
 
 log = logging.getLogger(__name__)
@@ -59,8 +60,12 @@ class TrialLoop:
         storage: RunDirectory,
         streams: RandomStreams,
         num_trials: int,
+        observers: Sequence[TrialObserver] = (),
+        metadata: Mapping[str, str] | None = None,
     ) -> None:
         self.c = components
+        self.observers = list(observers)
+        self.metadata = dict(metadata or {})
         self.storage = storage
         self.streams = streams
         self.num_trials = num_trials
@@ -88,7 +93,20 @@ class TrialLoop:
         continues after the last one with its data, policy and random-generator states,
         so the resumed run equals an uninterrupted one.
         """
+        try:
+            return self._run(on_step, on_trial)
+        finally:
+            for observer in self.observers:
+                observer.close()
+
+    def _run(
+        self,
+        on_step: Callable[[int, StepInfo], None] | None,
+        on_trial: Callable[[dict[str, Any]], None] | None,
+    ) -> pd.DataFrame:
         first = self._restore()
+        for observer in self.observers:
+            observer.run_started(self.metadata, first - 1)
         if first == 0:
             exploration = self._interact(self.c.exploration(rng=self.streams.system))
             table = self._record(0, exploration, {})
@@ -106,15 +124,16 @@ class TrialLoop:
                 None if on_step is None else (lambda info, k=trial: on_step(k, info)),
             )
             optimization_seconds = time.perf_counter() - start
-            self.storage.save_optimization_trace(
-                trial,
-                {
-                    "cost": result.costs,
-                    "dropout": result.dropouts,
-                    "learning_rate": result.learning_rates,
-                    "signal": result.signals,
-                },
-            )
+            trace = {
+                "cost": result.costs,
+                "dropout": result.dropouts,
+                "learning_rate": result.learning_rates,
+                "signal": result.signals,
+            }
+            self.storage.save_optimization_trace(trial, trace)
+            for observer in self.observers:
+                observer.optimized(trial, trace)
+            self._report_particles(trial)
             controller = PolicyController(self.c.policy, self.c.model, self.c.estimator)
             trajectory = self._interact(controller)
             self.storage.save_checkpoint(trial, "policy", self.c.policy.state_dict())
@@ -153,11 +172,28 @@ class TrialLoop:
         states = [estimator.offline(t.measurements, dt) for t in self.trajectories]
         actions = [t.actions for t in self.trajectories]
         try:
-            return self.c.model.fit(states, actions)
+            report = self.c.model.fit(states, actions)
         except NotPositiveDefiniteError as error:
             raise NotPositiveDefiniteError(
                 f"trial {trial}: {error} (trials 0..{trial - 1} are saved in {self.storage.path})"
             ) from error
+        assert self.c.model.gp is not None
+        hyperparameters = self.c.model.gp.hyperparameters()
+        for observer in self.observers:
+            observer.model_fitted(trial, hyperparameters)
+        return report
+
+    def _report_particles(self, trial: int) -> None:
+        """Simulate the final (deterministic) policy's particles for the observers."""
+        wanting = [o for o in self.observers if o.wants_particles]
+        if not wanting:
+            return
+        with torch.no_grad(), frozen(self.c.model):
+            result = self.rollout(self.c.optimizer.num_particles, 0.0, self.streams.reporting)
+            costs = self.c.cost(result.states)
+        states, costs_np = result.states.cpu().numpy(), costs.cpu().numpy()
+        for observer in wanting:
+            observer.particles_predicted(trial, states, costs_np, self.c.system.dt)
 
     def _interact(self, controller: Controller) -> Trajectory:
         """Step 3: run a controller on the system from a fresh x0 ~ p(x0)."""
@@ -170,9 +206,19 @@ class TrialLoop:
 
     def _record(self, trial: int, trajectory: Trajectory, extra: dict[str, Any]) -> pd.DataFrame:
         self.storage.save_trajectory(trial, trajectory)
+        if self.observers:
+            like = next(self.c.policy.parameters())
+            with torch.no_grad():
+                states = torch.as_tensor(trajectory.states, dtype=like.dtype, device=like.device)
+                costs = self.c.cost(states).cpu().numpy()
+            eval_costs = self.c.system.evaluation_cost(trajectory.states)
+            for observer in self.observers:
+                observer.rollout(trial, trajectory, costs, eval_costs)
         row: dict[str, Any] = {"trial": trial, **self.c.system.evaluate(trajectory), **extra}
         row["timestamp"] = time.time()
         self.storage.save_random_state(trial, self.streams.state())
-        table = self.storage.append_summary(row)  # last: the row marks the trial finished
+        table = self.storage.append_summary(row)  # the row marks the trial finished
+        for observer in self.observers:
+            observer.trial_finished(trial, row)
         log.info("trial %d: %s", trial, {k: row[k] for k in row if k != "timestamp"})
         return table

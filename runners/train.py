@@ -11,10 +11,11 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
-from mcpilco.build import build
+from mcpilco.build import build, make
 from mcpilco.errors import ConfigError
 from mcpilco.optim.policy_optimizer import StepInfo
 from mcpilco.run_storage import RunDirectory
+from mcpilco.tracking.metadata import run_metadata
 from mcpilco.trial_loop import TrialLoop
 from runners.process import keep_freed_memory
 
@@ -47,13 +48,27 @@ def main(cfg: DictConfig) -> None:
     try:
         cfg, run_dir = resolve_resume(cfg)
         experiment = build(cfg)
+        observers = [
+            make(node)(run_dir=run_dir)
+            for node in (cfg.get("tracking") or {}).values()
+            if node is not None
+        ]
     except ConfigError as error:
         log.error("configuration error: %s", error)
         sys.exit(2)
     storage = RunDirectory(run_dir)
-    storage.write_text("config.yaml", OmegaConf.to_yaml(cfg, resolve=True))
+    config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
+    storage.write_text("config.yaml", config_yaml)
     log.info("run directory: %s", storage.path)
-    loop = TrialLoop(experiment.components, storage, experiment.streams, experiment.num_trials)
+    metadata = run_metadata(config_yaml, cfg.seed, cfg.device, cfg.dtype)
+    loop = TrialLoop(
+        experiment.components,
+        storage,
+        experiment.streams,
+        experiment.num_trials,
+        observers=observers,
+        metadata=metadata,
+    )
     bars: dict[int, tqdm] = {}
 
     def on_step(trial: int, info: StepInfo) -> None:

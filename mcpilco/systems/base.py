@@ -144,6 +144,10 @@ class MechanicalSystem(ABC):
             f"{type(self).__name__} has no physical basis; the SP kernel needs one"
         )
 
+    def evaluation_cost(self, states: np.ndarray) -> np.ndarray:
+        """Task-independent evaluation cost per state ``[T+1]``; NaN where none is defined."""
+        return np.full(states.shape[0], np.nan)
+
     def evaluate(self, trajectory: Trajectory) -> dict[str, float]:
         """Task metrics of a rollout (e.g. evaluation cost, success). Empty by default."""
         return {}

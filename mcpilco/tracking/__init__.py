@@ -1,0 +1,7 @@
+"""Tracking: observers of the trial loop (MCAP log of every rollout) and its reader."""
+
+from mcpilco.tracking.base import TrialObserver
+from mcpilco.tracking.mcap_log import McapLogger
+from mcpilco.tracking.reader import RunLog, read_run_log
+
+__all__ = ["McapLogger", "RunLog", "TrialObserver", "read_run_log"]

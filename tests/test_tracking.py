@@ -1,0 +1,122 @@
+"""MCAP log of a real run: contents, a SIGKILL mid-trial, and resume exactly once."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from mcap.reader import make_reader
+from omegaconf import OmegaConf
+
+from mcpilco.run_storage import RunDirectory
+from mcpilco.tracking import read_run_log
+
+ROOT = Path(__file__).resolve().parent.parent
+TINY = [
+    "threads=1",
+    "optimizer.num_particles=60",
+    "policy.num_basis=10",
+    "system.trial_duration=1.0",
+    "optimizer.max_steps_first_trial=3",
+]
+
+
+def train_command(*overrides: str) -> list[str]:
+    return [sys.executable, "-m", "runners.train", *overrides]
+
+
+def test_log_holds_every_rollout_and_the_metadata(tmp_path: Path) -> None:
+    result = subprocess.run(
+        train_command(*TINY, "num_trials=2", "optimizer.max_steps=3", f"hydra.run.dir={tmp_path}"),
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stderr[-2000:]
+    # The plain mcap reader (summary section present: the run ended normally).
+    with open(tmp_path / "rollouts.mcap", "rb") as handle:
+        reader = make_reader(handle)
+        topics = {c.topic for c in reader.get_summary().channels.values()}
+        metadata = [m for m in reader.iter_metadata() if m.name == "run"]
+    assert {"/rollout", "/particles", "/optimization", "/gp/hyperparameters", "/trial"} <= topics
+    config = OmegaConf.create(metadata[0].metadata["config"])
+    assert config.optimizer.num_particles == 60 and config.seed == 0
+    assert "torch" in json.loads(metadata[0].metadata["versions"])
+
+    log = read_run_log(tmp_path)
+    run = RunDirectory(tmp_path)
+    summary = run.summary()
+    for trial in (0, 1, 2):
+        rollout = log.rollout(trial)
+        trajectory = run.load_trajectory(trial)
+        assert len(rollout) == 21  # T + 1 samples of a 1 s trial at 0.05 s
+        states = rollout[[f"state_{i}" for i in range(4)]].to_numpy()
+        np.testing.assert_array_equal(states, trajectory.states)
+        np.testing.assert_array_equal(rollout["action_0"].to_numpy()[:-1], trajectory.actions[:, 0])
+        assert rollout["eval_cost"].sum() == summary.loc[trial, "eval_cost"]
+    assert log.trials["trial"].tolist() == [0, 1, 2]
+    assert log.particles[2]["states"].shape == (21, 60, 4)
+    assert len(log.optimization) == 6 and not log.truncated
+
+
+def wait_for(condition, timeout: float) -> None:  # type: ignore[no-untyped-def]
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, "timed out"
+        time.sleep(0.2)
+
+
+def finished_trials(path: Path) -> list[int]:
+    summary = path / "summary.csv"
+    return pd.read_csv(summary)["trial"].tolist() if summary.exists() else []
+
+
+def test_sigkill_mid_trial_then_resume_keeps_each_trial_once(tmp_path: Path) -> None:
+    run_dir = tmp_path / "run"
+    slow_trial_2 = [
+        "num_trials=2",
+        "optimizer.max_steps=150",  # trial 2 runs long enough to be killed inside it
+        "optimizer.schedule.window=100000",
+    ]
+    process = subprocess.Popen(
+        train_command(*TINY, *slow_trial_2, f"hydra.run.dir={run_dir}"),
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    try:
+        wait_for(lambda: finished_trials(run_dir) == [0, 1], timeout=240)
+        time.sleep(2.0)  # inside trial 2's optimisation
+        assert process.poll() is None
+        process.send_signal(signal.SIGKILL)
+        process.wait(timeout=10)
+    finally:
+        process.kill()
+    killed = read_run_log(run_dir)
+    assert killed.trials["trial"].tolist() == [0, 1]
+    assert sorted(killed.rollouts["trial"].unique()) == [0, 1]
+    assert all(len(killed.rollout(t)) == 21 for t in (0, 1))
+    assert sorted(killed.particles) == [1]
+
+    resumed = subprocess.run(
+        train_command("num_trials=2", f"resume={run_dir}", f"hydra.run.dir={tmp_path / 'h'}"),
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=400,
+    )
+    assert resumed.returncode == 0, resumed.stderr[-2000:]
+    log = read_run_log(run_dir)
+    assert log.trials["trial"].tolist() == [0, 1, 2]
+    assert log.rollouts.groupby("trial").size().tolist() == [21, 21, 21]
+    assert sorted(log.particles) == [1, 2]
+    assert log.optimization.groupby("trial").size().loc[1] == 3
+    assert finished_trials(run_dir) == [0, 1, 2]
+    assert [m["resumed_after_trial"] for m in log.metadata] == ["1"]
