@@ -12,6 +12,7 @@ import pytest
 import torch
 from omegaconf import OmegaConf
 
+from analysis.summary import load_runs, markdown
 from mcpilco.errors import NotPositiveDefiniteError
 from mcpilco.run_storage import RunDirectory
 
@@ -61,6 +62,10 @@ def test_smoke_run_finishes_in_under_a_minute(tmp_path: Path, kernel: str) -> No
     assert trajectory.states.shape == (21, 4) and trajectory.actions.shape == (20, 1)
     trace = pd.read_csv(tmp_path / "optimization" / "trial_01.csv")
     assert list(trace.columns) == ["step", "cost", "dropout", "learning_rate", "signal"]
+    table = load_runs([tmp_path])
+    assert table.loc[0, "kernel"] == "PI+SE" and table.loc[0, "trials_done"] == 2
+    assert table.loc[0, "cost_T2"] == summary.loc[2, "eval_cost"]
+    assert "| PI+SE | 0 |" in markdown(table)
 
 
 def test_bad_value_exits_with_one_line_error(tmp_path: Path) -> None:
