@@ -104,3 +104,19 @@ def test_reduction_keeps_exactly_the_uncertain_samples() -> None:
     index = reduce_dataset(gp, threshold)
     assert index.tolist() == kept
     assert gp.train_inputs.shape[0] == len(kept) < len(x)
+
+
+def test_fused_prediction_gradients(generator: torch.Generator) -> None:
+    from mcpilco.gp.prediction import mean_and_quadratic, posterior_sample
+
+    dtype = torch.float64
+    cross = (0.3 * torch.rand(2, 6, 4, generator=generator, dtype=dtype)).requires_grad_()
+    a = torch.randn(2, 4, 4, generator=generator, dtype=dtype)
+    inverse_gram = a @ a.transpose(-1, -2) + torch.eye(4, dtype=dtype)
+    alpha = torch.randn(2, 4, generator=generator, dtype=dtype)
+    prior = torch.full((2, 6), 5.0, dtype=dtype, requires_grad=True)
+    noise = torch.randn(2, 6, generator=generator, dtype=dtype)
+    assert torch.autograd.gradcheck(
+        lambda k, p: posterior_sample(k, p, inverse_gram, alpha, noise), (cross, prior)
+    )
+    assert torch.autograd.gradcheck(lambda k: mean_and_quadratic(k, inverse_gram, alpha), (cross,))

@@ -18,14 +18,32 @@ import torch
 from torch.autograd.function import once_differentiable
 
 
+def _products(
+    cross: torch.Tensor, inverse_gram: torch.Tensor, alpha: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Γ⁻¹ k* ``[G, M, N]``, mean k* α ``[G, M]`` and quadratic k* Γ⁻¹ k*ᵀ ``[G, M]``."""
+    weighted = torch.matmul(cross, inverse_gram)
+    mean = torch.matmul(cross, alpha.unsqueeze(-1)).squeeze(-1)
+    return weighted, mean, torch.linalg.vecdot(weighted, cross)
+
+
+def _cross_gradient(
+    weighted: torch.Tensor,
+    alpha: torch.Tensor,
+    grad_mean: torch.Tensor,
+    grad_quadratic: torch.Tensor,
+) -> torch.Tensor:
+    """∂/∂k* of the mean is α, of the quadratic 2 Γ⁻¹ k*."""
+    grad_cross = weighted * (2.0 * grad_quadratic).unsqueeze(-1)
+    return grad_cross.add_(grad_mean.unsqueeze(-1) * alpha.unsqueeze(-2))
+
+
 class _MeanAndQuadratic(torch.autograd.Function):
     @staticmethod
     def forward(
         ctx: Any, cross: torch.Tensor, inverse_gram: torch.Tensor, alpha: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor]:
-        weighted = torch.matmul(cross, inverse_gram)  # [G, M, N]
-        mean = torch.matmul(cross, alpha.unsqueeze(-1)).squeeze(-1)  # [G, M]
-        quadratic = torch.linalg.vecdot(weighted, cross)  # [G, M]
+        weighted, mean, quadratic = _products(cross, inverse_gram, alpha)
         ctx.save_for_backward(weighted, alpha)
         return mean, quadratic
 
@@ -35,9 +53,7 @@ class _MeanAndQuadratic(torch.autograd.Function):
         ctx: Any, grad_mean: torch.Tensor, grad_quadratic: torch.Tensor
     ) -> tuple[torch.Tensor, None, None]:
         weighted, alpha = ctx.saved_tensors
-        grad_cross = weighted * (2.0 * grad_quadratic).unsqueeze(-1)
-        grad_cross.add_(grad_mean.unsqueeze(-1) * alpha.unsqueeze(-2))
-        return grad_cross, None, None
+        return _cross_gradient(weighted, alpha, grad_mean, grad_quadratic), None, None
 
 
 def mean_and_quadratic(
@@ -67,9 +83,8 @@ class _PosteriorSample(torch.autograd.Function):
         alpha: torch.Tensor,
         noise: torch.Tensor,
     ) -> torch.Tensor:
-        weighted = torch.matmul(cross, inverse_gram)  # [G, M, N]
-        mean = torch.matmul(cross, alpha.unsqueeze(-1)).squeeze(-1)  # [G, M]
-        variance = prior_variance - torch.linalg.vecdot(weighted, cross)
+        weighted, mean, quadratic = _products(cross, inverse_gram, alpha)
+        variance = prior_variance - quadratic
         clamped = variance < VARIANCE_FLOOR
         std = variance.clamp_min(VARIANCE_FLOOR).sqrt_()
         ctx.save_for_backward(weighted, alpha, noise, std, clamped)
@@ -82,9 +97,7 @@ class _PosteriorSample(torch.autograd.Function):
     ) -> tuple[torch.Tensor, torch.Tensor, None, None, None]:
         weighted, alpha, noise, std, clamped = ctx.saved_tensors
         grad_variance = (grad * noise / (2.0 * std)).masked_fill_(clamped, 0.0)  # [G, M]
-        # ∂/∂k* of the mean is α, of the variance −2 Γ⁻¹ k*.
-        grad_cross = weighted * (-2.0 * grad_variance).unsqueeze(-1)
-        grad_cross.add_(grad.unsqueeze(-1) * alpha.unsqueeze(-2))
+        grad_cross = _cross_gradient(weighted, alpha, grad, -grad_variance)
         return grad_cross, grad_variance, None, None, None
 
 
