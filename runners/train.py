@@ -15,6 +15,7 @@ from mcpilco.build import build, make
 from mcpilco.errors import ConfigError
 from mcpilco.optim.policy_optimizer import StepInfo
 from mcpilco.run_storage import RunDirectory
+from mcpilco.tracking.base import TrialObserver
 from mcpilco.tracking.metadata import run_metadata
 from mcpilco.trial_loop import TrialLoop
 from runners.process import keep_freed_memory
@@ -42,17 +43,28 @@ def resolve_resume(cfg: DictConfig) -> tuple[DictConfig, Path]:
     return saved, run_dir
 
 
+def build_observers(cfg: DictConfig, run_dir: Path) -> list[TrialObserver]:
+    """The MCAP logger (unless ``tracking.mcap=null``) and the Rerun stream if asked."""
+    tracking = cfg.get("tracking") or {}
+    observers: list[TrialObserver] = []
+    if tracking.get("mcap") is not None:
+        observers.append(make(tracking.mcap)(run_dir=run_dir))
+    mode = tracking.get("rerun", "off")
+    mode = "off" if mode in (None, False) else str(mode)
+    if mode not in ("off", "save", "connect"):
+        raise ConfigError(f"tracking.rerun={mode!r} must be off, save or connect")
+    if mode != "off":
+        observers.append(make(tracking.rerun_stream)(run_dir=run_dir, mode=mode))
+    return observers
+
+
 @hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="train")
 def main(cfg: DictConfig) -> None:
     keep_freed_memory()
     try:
         cfg, run_dir = resolve_resume(cfg)
         experiment = build(cfg)
-        observers = [
-            make(node)(run_dir=run_dir)
-            for node in (cfg.get("tracking") or {}).values()
-            if node is not None
-        ]
+        observers = build_observers(cfg, run_dir)
     except ConfigError as error:
         log.error("configuration error: %s", error)
         sys.exit(2)

@@ -120,3 +120,61 @@ def test_sigkill_mid_trial_then_resume_keeps_each_trial_once(tmp_path: Path) -> 
     assert log.optimization.groupby("trial").size().loc[1] == 3
     assert finished_trials(run_dir) == [0, 1, 2]
     assert [m["resumed_after_trial"] for m in log.metadata] == ["1"]
+
+
+def particle_values(recording: Path, trial: int) -> int:
+    from rerun.chunk import RrdReader
+
+    total = 0
+    for chunk in RrdReader(recording).store().stream():
+        if str(chunk.entity_path) == f"/trial_{trial}/particles/x0":
+            batch = chunk.to_record_batch()
+            total += sum(len(v) for v in batch.column("Scalars:scalars").to_pylist())
+    return total
+
+
+def test_rerun_recording_and_replay_verify_and_hold_the_particles(tmp_path: Path) -> None:
+    result = subprocess.run(
+        train_command(
+            *TINY,
+            "num_trials=1",
+            "optimizer.max_steps=3",
+            "tracking.rerun=save",
+            "tracking.rerun_stream.max_particles=60",
+            f"hydra.run.dir={tmp_path}",
+        ),
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stderr[-2000:]
+    replayed = subprocess.run(
+        [sys.executable, "-m", "runners.replay", str(tmp_path), "--save", str(tmp_path / "r.rrd")],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert replayed.returncode == 0, replayed.stderr[-2000:]
+    rerun = Path(sys.executable).parent / "rerun"
+    for recording in (tmp_path / "recording.rrd", tmp_path / "r.rrd"):
+        verify = subprocess.run(
+            [str(rerun), "rrd", "verify", str(recording)],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+        assert verify.returncode == 0, verify.stderr[-1000:]
+        assert particle_values(recording, 1) == 60 * 21  # M particles × (T + 1) steps
+
+
+def test_replay_of_a_missing_trial_fails_clearly(tmp_path: Path) -> None:
+    result = subprocess.run(
+        [sys.executable, "-m", "runners.replay", str(tmp_path)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode == 2 and "no MCAP log" in result.stderr

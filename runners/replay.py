@@ -1,0 +1,98 @@
+"""Rebuild a run's Rerun recording from its MCAP log alone (nothing is re-run).
+
+    python -m runners.replay RUN_DIR [--trial K] [--save OUT.rrd | --connect [URL]]
+
+Without ``--save``/``--connect`` it writes ``RUN_DIR/replay.rrd``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from mcpilco.tracking import RerunStreamer, read_run_log
+from mcpilco.tracking.reader import RunLog
+from mcpilco.tracking.rerun_stream import LOCAL_VIEWER
+from mcpilco.trajectory import Trajectory
+
+log = logging.getLogger("mcpilco.replay")
+
+
+def columns(frame, prefix: str) -> np.ndarray:  # type: ignore[no-untyped-def]
+    names = sorted(
+        (c for c in frame.columns if c.startswith(prefix + "_")),
+        key=lambda c: int(c.rsplit("_", 1)[1]),
+    )
+    return frame[names].to_numpy(dtype=np.float64)
+
+
+def replay(run_log: RunLog, streamer: RerunStreamer, trials: list[int]) -> None:
+    """Feed the logged trials to ``streamer`` through the same hooks a live run uses."""
+    streamer.run_started(run_log.metadata[0] if run_log.metadata else {}, -1)
+    for trial in trials:
+        trace = (
+            run_log.optimization[run_log.optimization["trial"] == trial]
+            if len(run_log.optimization)
+            else None
+        )
+        if trace is not None and len(trace):
+            streamer.optimized(
+                trial,
+                {k: trace[k].tolist() for k in ("cost", "dropout", "learning_rate", "signal")},
+            )
+        if trial in run_log.particles:
+            particles = run_log.particles[trial]
+            dt = float(run_log.rollout(trial)["time"].diff().iloc[1])
+            streamer.particles_predicted(
+                trial, particles["states"], particles["cost_mean"][:, None], dt
+            )
+        rollout = run_log.rollout(trial)
+        states = columns(rollout, "state")
+        actions = columns(rollout, "action")[:-1]
+        dt = float(rollout["time"].iloc[1] - rollout["time"].iloc[0])
+        trajectory = Trajectory(states, columns(rollout, "measurement"), actions, dt)
+        streamer.rollout(
+            trial, trajectory, rollout["cost"].to_numpy(), rollout["eval_cost"].to_numpy()
+        )
+        streamer.trial_finished(trial, {})
+    streamer.close()
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("run_dir", type=Path)
+    parser.add_argument("--trial", type=int, action="append", help="only these trials")
+    target = parser.add_mutually_exclusive_group()
+    target.add_argument("--save", type=Path, help="write the recording here")
+    target.add_argument("--connect", nargs="?", const=LOCAL_VIEWER, help="stream to a viewer")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(message)s")
+    try:
+        run_log = read_run_log(args.run_dir)
+    except (FileNotFoundError, ValueError) as error:
+        log.error("%s", error)
+        return 2
+    if run_log.truncated:
+        log.warning("the log ends early (killed run): replaying the trials it holds whole")
+    available = sorted(run_log.trials["trial"].tolist()) if len(run_log.trials) else []
+    trials = args.trial or available
+    missing = sorted(set(trials) - set(available))
+    if missing:
+        log.error("trials %s are not in %s (it holds %s)", missing, args.run_dir, available)
+        return 2
+    if args.connect:
+        streamer = RerunStreamer(args.run_dir, mode="connect", url=args.connect)
+    else:
+        out = args.save or args.run_dir / "replay.rrd"
+        streamer = RerunStreamer(out.parent, mode="save", filename=out.name)
+    replay(run_log, streamer, trials)
+    log.info("replayed trials %s", trials)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
