@@ -13,6 +13,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from hydra.utils import instantiate
+from omegaconf import OmegaConf
 
 from mcpilco.tracking import RerunStreamer, read_run_log
 from mcpilco.tracking.reader import RunLog
@@ -84,11 +86,15 @@ def main(argv: list[str] | None = None) -> int:
     if missing:
         log.error("trials %s are not in %s (it holds %s)", missing, args.run_dir, available)
         return 2
+    sketch = None
+    if run_log.metadata and "config" in run_log.metadata[0]:
+        config = OmegaConf.create(run_log.metadata[0]["config"])
+        sketch = instantiate(config.system).sketch  # the logged system, for its drawing
     if args.connect:
-        streamer = RerunStreamer(args.run_dir, mode="connect", url=args.connect)
+        streamer = RerunStreamer(args.run_dir, mode="connect", url=args.connect, sketch=sketch)
     else:
         out = args.save or args.run_dir / "replay.rrd"
-        streamer = RerunStreamer(out.parent, mode="save", filename=out.name)
+        streamer = RerunStreamer(out.parent, mode="save", filename=out.name, sketch=sketch)
     replay(run_log, streamer, trials)
     log.info("replayed trials %s", trials)
     return 0

@@ -15,6 +15,7 @@ from mcpilco.build import build, make
 from mcpilco.errors import ConfigError
 from mcpilco.optim.policy_optimizer import StepInfo
 from mcpilco.run_storage import RunDirectory
+from mcpilco.systems.base import MechanicalSystem
 from mcpilco.tracking.base import TrialObserver
 from mcpilco.tracking.metadata import run_metadata
 from mcpilco.trial_loop import TrialLoop
@@ -43,7 +44,9 @@ def resolve_resume(cfg: DictConfig) -> tuple[DictConfig, Path]:
     return saved, run_dir
 
 
-def build_observers(cfg: DictConfig, run_dir: Path) -> list[TrialObserver]:
+def build_observers(
+    cfg: DictConfig, run_dir: Path, system: MechanicalSystem
+) -> list[TrialObserver]:
     """The MCAP logger (unless ``tracking.mcap=null``) and the Rerun stream if asked."""
     tracking = cfg.get("tracking") or {}
     observers: list[TrialObserver] = []
@@ -54,7 +57,8 @@ def build_observers(cfg: DictConfig, run_dir: Path) -> list[TrialObserver]:
     if mode not in ("off", "save", "connect"):
         raise ConfigError(f"tracking.rerun={mode!r} must be off, save or connect")
     if mode != "off":
-        observers.append(make(tracking.rerun_stream)(run_dir=run_dir, mode=mode))
+        stream = make(tracking.rerun_stream)
+        observers.append(stream(run_dir=run_dir, mode=mode, sketch=system.sketch))
     return observers
 
 
@@ -64,7 +68,7 @@ def main(cfg: DictConfig) -> None:
     try:
         cfg, run_dir = resolve_resume(cfg)
         experiment = build(cfg)
-        observers = build_observers(cfg, run_dir)
+        observers = build_observers(cfg, run_dir, experiment.components.system)
     except ConfigError as error:
         log.error("configuration error: %s", error)
         sys.exit(2)

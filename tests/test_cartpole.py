@@ -91,3 +91,12 @@ def test_success_requires_the_whole_last_second() -> None:
     states[40, 2] = math.pi
     states[45, 0] = 0.15  # cart too far
     assert not system.evaluate(Trajectory(states, states, np.zeros((60, 1)), 0.05))["success"]
+
+
+def test_sketch_draws_pole_tip_at_length_from_pivot() -> None:
+    system = CartPole()
+    states = np.array([[0.3, 0.0, math.pi, 0.0], [-0.2, 0.0, math.pi / 2, 0.0]])
+    segments = system.sketch(states)  # [T+1, 2 segments, 2 points, xy]
+    np.testing.assert_allclose(segments[0, 1, 1], [0.3, 0.5], atol=1e-12)  # upright tip
+    np.testing.assert_allclose(segments[1, 1, 1], [0.3, 0.0], atol=1e-12)  # horizontal
+    np.testing.assert_allclose(segments[:, 0, :, 1], 0.0)  # cart on the track

@@ -144,6 +144,11 @@ class MechanicalSystem(ABC):
             f"{type(self).__name__} has no physical basis; the SP kernel needs one"
         )
 
+    def sketch(self, states: np.ndarray) -> np.ndarray | None:
+        """A 2-D drawing of each state for viewers: line segments ``[T+1, S, 2, 2]`` (S
+        segments from point to point, metres, x right and y up), or None."""
+        return None
+
     def evaluation_cost(self, states: np.ndarray) -> np.ndarray:
         """Task-independent evaluation cost per state ``[T+1]``; NaN where none is defined."""
         return np.full(states.shape[0], np.nan)

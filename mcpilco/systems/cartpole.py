@@ -103,6 +103,17 @@ class CartPole(OdeSystem):
         phi_pole = torch.stack([w2s * c, s, u * c, p_dot * c], dim=-1)
         return torch.stack([phi_cart, phi_pole], dim=0)
 
+    def sketch(self, states: np.ndarray) -> np.ndarray:
+        """Cart (a 0.2 m bar on the track) and pole (pivot to tip), ``[T+1, 2, 2, 2]``."""
+        p, theta = states[:, 0], states[:, 2]
+        zeros = np.zeros_like(p)
+        tip = np.stack(
+            [p + self.pole_length * np.sin(theta), -self.pole_length * np.cos(theta)], -1
+        )
+        cart = np.stack([np.stack([p - 0.1, zeros], -1), np.stack([p + 0.1, zeros], -1)], 1)
+        pole = np.stack([np.stack([p, zeros], -1), tip], 1)
+        return np.stack([cart, pole], 1)
+
     def evaluation_cost(self, states: np.ndarray) -> np.ndarray:
         """PILCO's cost (2.17) per state ``[T+1]``: 1 − exp(−½ (d/0.25)²)."""
         p, theta = states[:, 0], states[:, 2]

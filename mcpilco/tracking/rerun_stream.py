@@ -11,12 +11,13 @@ one scalar per call). Entities, per trial k and state component i:
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import rerun as rr
+import rerun.blueprint as rrb
 
 from mcpilco.errors import ConfigError
 from mcpilco.tracking.base import TrialObserver
@@ -33,6 +34,8 @@ class RerunStreamer(TrialObserver):
         mode: ``save`` writes ``filename`` into the run directory; ``connect`` streams to
             a running viewer at ``url`` (localhost by default).
         max_particles: particles drawn per trial (the first ones; mean uses all).
+        sketch: the system's 2-D drawing of states (``MechanicalSystem.sketch``), drawn
+            on ``trial_k/system`` along the ``time`` timeline.
     """
 
     wants_particles = True
@@ -44,6 +47,7 @@ class RerunStreamer(TrialObserver):
         filename: str = "recording.rrd",
         url: str = LOCAL_VIEWER,
         max_particles: int = 100,
+        sketch: Callable[[np.ndarray], np.ndarray | None] | None = None,
     ) -> None:
         if mode not in ("save", "connect"):
             raise ConfigError(f"tracking.rerun.mode must be save or connect, got {mode!r}")
@@ -57,6 +61,9 @@ class RerunStreamer(TrialObserver):
         else:
             self.recording.connect_grpc(url)
         self._optimization_steps = 0
+        self.sketch = sketch
+        self._trials: list[int] = []
+        self._state_dim = 0
 
     def _scalars(self, entity: str, times: np.ndarray, values: np.ndarray) -> None:
         """``values [T]`` or ``[T, K]`` (K series) against ``times [T]`` seconds."""
@@ -90,6 +97,31 @@ class RerunStreamer(TrialObserver):
         for i in range(trajectory.states.shape[1]):
             self._scalars(f"trial_{trial}/real/x{i}", times, trajectory.states[:, i])
         self._scalars(f"trial_{trial}/cost", times, costs)
+
+    def blueprint(self) -> rrb.Blueprint:
+        """Latest trial: particles, mean and real trajectory per state component, the system
+        drawing, costs; optimisation curves below; earlier trials in tabs."""
+        tabs = []
+        for trial in reversed(self._trials):
+            plots = [
+                rrb.TimeSeriesView(
+                    name=f"x{i}",
+                    origin=f"/trial_{trial}",
+                    contents=[f"+ particles/x{i}/**", f"+ mean/x{i}", f"+ real/x{i}"],
+                )
+                for i in range(self._state_dim)
+            ]
+            side = [
+                rrb.Spatial2DView(name="system", origin=f"/trial_{trial}/system"),
+                rrb.TimeSeriesView(
+                    name="cost", origin=f"/trial_{trial}", contents=["+ cost", "+ particle_cost"]
+                ),
+            ]
+            tabs.append(
+                rrb.Horizontal(rrb.Grid(*plots), rrb.Vertical(*side), name=f"trial {trial}")
+            )
+        optimization = rrb.TimeSeriesView(name="optimisation", origin="/optimization")
+        return rrb.Blueprint(rrb.Vertical(rrb.Tabs(*tabs), optimization, row_shares=[3, 1]))
 
     def optimized(self, trial: int, trace: Mapping[str, list[float]]) -> None:
         steps = np.arange(len(trace["cost"])) + self._optimization_steps
