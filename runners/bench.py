@@ -150,6 +150,42 @@ def fit_comparison(n: int = 300) -> dict[str, float]:
     }
 
 
+def logging_overhead(step_seconds: float, steps: int = 1500) -> tuple[float, float]:
+    """Seconds that MCAP + Rerun (save) add to one trial of realistic size (M = 400,
+    T = 60, ``steps`` optimisation steps, one extra no-grad particle rollout for the
+    logged prediction), and that as a fraction of the trial's optimisation time."""
+    import tempfile
+
+    from mcpilco.systems import CartPole
+    from mcpilco.tracking import McapLogger, RerunStreamer
+    from mcpilco.trajectory import Trajectory
+
+    rng = np.random.default_rng(0)
+    system = CartPole()
+    states = rng.normal(size=(61, 4))
+    trajectory = Trajectory(states, states, rng.normal(size=(60, 1)), 0.05)
+    particles = rng.normal(size=(61, 400, 4))
+    trace = {
+        k: rng.normal(size=steps).tolist() for k in ("cost", "dropout", "learning_rate", "signal")
+    }
+    with tempfile.TemporaryDirectory() as folder:
+        observers = [
+            McapLogger(folder),
+            RerunStreamer(folder, mode="save", sketch=system.sketch),
+        ]
+        start = time.perf_counter()
+        for observer in observers:
+            observer.run_started({"config": "bench"}, -1)
+            observer.model_fitted(1, {"lengthscale": [[1.0] * 6] * 2})
+            observer.optimized(1, trace)
+            observer.particles_predicted(1, particles, rng.random((61, 400)), 0.05)
+            observer.rollout(1, trajectory, rng.random(61), rng.random(61))
+            observer.trial_finished(1, {"eval_cost": 1.0, "success": False})
+            observer.close()
+        seconds = time.perf_counter() - start + 0.5 * step_seconds  # + the prediction rollout
+    return seconds, seconds / (steps * step_seconds)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--steps", type=int, default=15, help="timed steps per setting")
@@ -164,14 +200,21 @@ def main() -> None:
     print(f"torch {torch.__version__}, threads {torch.get_num_threads()}")  # noqa: T201
     print(f"machine float64 matmul: {matmul_gflops():.1f} GFLOP/s")  # noqa: T201
     print("policy-optimisation step, M=400 T=60 n_b=200, speed-integration SE:")  # noqa: T201
+    step_times = {}
     for n in (60, 300):
         for dtype in ("float64", "float32"):
             seconds, gflops = time_steps(dtype, n, args.steps, args.warmup)
+            step_times[n, dtype] = seconds
             print(  # noqa: T201
                 f"  n={n:3d} {dtype}: median {seconds * 1e3:7.1f} ms/step over {args.steps} "
                 f"steps, rollout {gflops:5.2f} GFLOP/s"
             )
     print(f"machine float64 matmul (again): {matmul_gflops():.1f} GFLOP/s")  # noqa: T201
+    overhead, fraction = logging_overhead(step_times[60, "float64"])
+    print(  # noqa: T201
+        f"logging (MCAP + Rerun) per trial of 1500 steps: {overhead:.2f} s = "
+        f"{100 * fraction:.2f}% of its optimisation time at n=60 float64"
+    )
     if not args.skip_fit:
         fit = fit_comparison()
         print(  # noqa: T201
