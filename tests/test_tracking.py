@@ -14,6 +14,7 @@ import pandas as pd
 from mcap.reader import make_reader
 from omegaconf import OmegaConf
 
+from analysis.plot_run import plot_trial
 from mcpilco.run_storage import RunDirectory
 from mcpilco.tracking import read_run_log
 
@@ -64,6 +65,9 @@ def test_log_holds_every_rollout_and_the_metadata(tmp_path: Path) -> None:
     assert log.trials["trial"].tolist() == [0, 1, 2]
     assert log.particles[2]["states"].shape == (21, 60, 4)
     assert len(log.optimization) == 6 and not log.truncated
+    figure = plot_trial(log, 2)
+    figure.savefig(tmp_path / "particles.png")
+    assert (tmp_path / "particles.png").stat().st_size > 10_000
 
 
 def wait_for(condition, timeout: float) -> None:  # type: ignore[no-untyped-def]
