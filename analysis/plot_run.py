@@ -16,9 +16,20 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from hydra.utils import instantiate  # noqa: E402
+from omegaconf import OmegaConf  # noqa: E402
 
 from mcpilco.tracking import read_run_log  # noqa: E402
 from mcpilco.tracking.reader import RunLog  # noqa: E402
+
+
+def state_names(run_log: RunLog, dim: int) -> list[str]:
+    """The logged system's state labels (from the config in the log's metadata)."""
+    names: tuple[str, ...] = ()
+    if run_log.metadata and "config" in run_log.metadata[0]:
+        config = OmegaConf.create(run_log.metadata[0]["config"])
+        names = getattr(instantiate(config.system), "state_names", ())
+    return list(names) if len(names) == dim else [f"x{i}" for i in range(dim)]
 
 
 def plot_trial(run_log: RunLog, trial: int, max_particles: int = 100) -> plt.Figure:
@@ -28,6 +39,7 @@ def plot_trial(run_log: RunLog, trial: int, max_particles: int = 100) -> plt.Fig
     states = particles["states"]  # [T+1, M, d_x]
     dim = states.shape[2]
     figure, axes = plt.subplots(1, dim + 1, figsize=(3.2 * (dim + 1), 3.0), constrained_layout=True)
+    names = state_names(run_log, dim)
     for i in range(dim):
         ax = axes[i]
         ax.plot(times, states[:, :max_particles, i], color="0.6", linewidth=0.4, alpha=0.5)
@@ -35,7 +47,7 @@ def plot_trial(run_log: RunLog, trial: int, max_particles: int = 100) -> plt.Fig
             times, particles["mean"][:, i], color="tab:blue", linewidth=1.5, label="particle mean"
         )
         ax.plot(times, rollout[f"state_{i}"], color="black", linewidth=1.5, label="system")
-        ax.set_title(f"x{i}")
+        ax.set_title(names[i])
         ax.set_xlabel("time [s]")
     axes[0].legend(loc="best", fontsize=7)
     axes[-1].plot(times, particles["cost_mean"], color="tab:blue", label="particles (mean)")

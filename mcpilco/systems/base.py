@@ -47,6 +47,8 @@ class MechanicalSystem(ABC):
     velocity_indices: tuple[int, ...] = ()
     angle_indices: tuple[int, ...] = ()
     action_dim: int = 1
+    state_names: tuple[str, ...] = ()
+    """Labels of the state components with units, for plots (``x0``, ``x1``, ... if empty)."""
 
     def __init__(
         self,

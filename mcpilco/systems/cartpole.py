@@ -29,6 +29,7 @@ class CartPole(OdeSystem):
     velocity_indices = (1, 3)
     angle_indices = (2,)
     action_dim = 1
+    state_names = ("p [m]", "ṗ [m/s]", "θ [rad]", "θ̇ [rad/s]")
 
     def __init__(
         self,

@@ -29,8 +29,7 @@ def _records(path: Path) -> Iterator[Any]:
         try:
             yield from reader.records
         except (McapError, EOFError, ValueError) as error:
-            log.warning("%s ends early (%s): reading what precedes", path, type(error).__name__)
-            raise TruncatedLogError(str(path)) from error
+            raise TruncatedLogError(f"{path} ends early ({type(error).__name__})") from error
 
 
 def iter_raw_messages(path: Path) -> Iterator[tuple[str, Any, bytes]]:
@@ -146,8 +145,11 @@ def read_run_log(path: str | Path) -> RunLog:
         for record in _records(path):
             if isinstance(record, Metadata) and record.name == "run":
                 metadata.append(dict(record.metadata))
-    except TruncatedLogError:
+    except TruncatedLogError as error:
         truncated = True
+        log.warning(
+            "%s: reading the complete records before it (a killed or running writer)", error
+        )
     particles = {
         trial: {
             "states": np.stack(
