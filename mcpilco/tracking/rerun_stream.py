@@ -5,7 +5,8 @@ one scalar per call). Entities, per trial k and state component i:
 ``trial_k/particles/x{i}`` (M' particle values per time step), ``trial_k/mean/x{i}``,
 ``trial_k/real/x{i}`` (the system's true state), ``trial_k/cost`` (real) and
 ``trial_k/particle_cost`` (mean over particles), all on the ``time`` timeline (seconds);
-``optimization/{cost,dropout,learning_rate,signal}`` on the ``optimization_step`` timeline.
+``optimization/{cost,dropout,learning_rate,signal}`` on the ``optimization_step`` and
+``trial`` timelines.
 """
 
 from __future__ import annotations
@@ -126,7 +127,10 @@ class RerunStreamer(TrialObserver):
     def optimized(self, trial: int, trace: Mapping[str, list[float]]) -> None:
         steps = np.arange(len(trace["cost"])) + self._optimization_steps
         self._optimization_steps += len(steps)
-        index = [rr.TimeColumn("optimization_step", sequence=steps)]
+        index = [
+            rr.TimeColumn("optimization_step", sequence=steps),
+            rr.TimeColumn("trial", sequence=np.full(len(steps), trial)),
+        ]
         for name in ("cost", "dropout", "learning_rate", "signal"):
             self.recording.send_columns(
                 f"optimization/{name}",
