@@ -25,6 +25,29 @@ CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.train")
 
 
+MACHINE_KEYS = ("num_trials", "threads", "device", "resume")
+
+
+def check_same_run(cfg: DictConfig, run_dir: Path) -> None:
+    """A directory holding finished trials is continued only by the same experiment
+    (a re-run sweep skips or completes its jobs); anything else is refused."""
+    saved_path = run_dir / "config.yaml"
+    if not (run_dir / "summary.csv").is_file() or not saved_path.is_file():
+        return
+    saved = OmegaConf.to_container(OmegaConf.load(saved_path), resolve=True)
+    current = OmegaConf.to_container(cfg, resolve=True)
+    assert isinstance(saved, dict) and isinstance(current, dict)
+    for key in MACHINE_KEYS:
+        saved.pop(key, None)
+        current.pop(key, None)
+    if saved != current:
+        raise ConfigError(
+            f"hydra.run.dir={str(run_dir)!r} holds a different run; pick a new directory "
+            f"or continue that one with resume={str(run_dir)!r}"
+        )
+    log.info("continuing the finished trials in %s", run_dir)
+
+
 def resolve_resume(cfg: DictConfig) -> tuple[DictConfig, Path]:
     """The config and directory to run in: Hydra's, or those of the run to resume.
 
@@ -32,13 +55,15 @@ def resolve_resume(cfg: DictConfig) -> tuple[DictConfig, Path]:
     ``threads``/``device`` (the machine) are taken from the command line.
     """
     if cfg.get("resume") is None:
-        return cfg, Path(HydraConfig.get().runtime.output_dir)
+        run_dir = Path(HydraConfig.get().runtime.output_dir)
+        check_same_run(cfg, run_dir)
+        return cfg, run_dir
     run_dir = Path(cfg.resume).expanduser().resolve()
     if not (run_dir / "config.yaml").is_file():
         raise ConfigError(f"resume={cfg.resume!r} holds no config.yaml")
     saved = OmegaConf.load(run_dir / "config.yaml")
     assert isinstance(saved, DictConfig)
-    for key in ("num_trials", "threads", "device"):
+    for key in MACHINE_KEYS[:-1]:
         saved[key] = cfg[key]
     saved.resume = str(run_dir)
     return saved, run_dir

@@ -124,3 +124,12 @@ def test_resume_continues_exactly_like_an_uninterrupted_run(tmp_path: Path) -> N
     assert got["trial"].tolist() == [0, 1, 2]
     timing = ["fit_seconds", "optimization_seconds"]
     pd.testing.assert_frame_equal(got.drop(columns=timing), expected.drop(columns=timing))
+
+
+def test_rerun_in_a_used_directory_continues_only_the_same_experiment(tmp_path: Path) -> None:
+    assert run_train(*TINY, "num_trials=1", f"hydra.run.dir={tmp_path}").returncode == 0
+    same = run_train(*TINY, "num_trials=1", f"hydra.run.dir={tmp_path}")
+    assert same.returncode == 0  # nothing left to do: finished jobs are skipped
+    assert pd.read_csv(tmp_path / "summary.csv")["trial"].tolist() == [0, 1]
+    other = run_train(*TINY, "num_trials=1", "kernel=sp", f"hydra.run.dir={tmp_path}")
+    assert other.returncode == 2 and "holds a different run" in other.stderr + other.stdout
