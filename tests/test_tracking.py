@@ -182,3 +182,43 @@ def test_replay_of_a_missing_trial_fails_clearly(tmp_path: Path) -> None:
         timeout=60,
     )
     assert result.returncode == 2 and "no MCAP log" in result.stderr
+
+
+def test_a_file_that_is_not_mcap_fails_clearly(tmp_path: Path) -> None:
+    import pytest
+
+    (tmp_path / "rollouts.mcap").write_bytes(b"definitely not an mcap file" * 10)
+    with pytest.raises(ValueError, match="not an MCAP file"):
+        read_run_log(tmp_path)
+
+
+def test_truncated_anywhere_reads_a_prefix_of_whole_trials(tmp_path: Path) -> None:
+    from mcpilco.tracking import McapLogger
+    from mcpilco.trajectory import Trajectory
+
+    rng = np.random.default_rng(0)
+    logger = McapLogger(tmp_path)
+    logger.run_started({"config": "x: 1"}, -1)
+    for trial in range(4):
+        states = rng.normal(size=(21, 4))
+        logger.particles_predicted(trial, rng.normal(size=(21, 60, 4)), rng.random((21, 60)), 0.05)
+        logger.rollout(
+            trial,
+            Trajectory(states, states, rng.normal(size=(20, 1)), 0.05),
+            rng.random(21),
+            rng.random(21),
+        )
+        logger.trial_finished(trial, {"eval_cost": 1.0})
+    logger.close()
+    data = (tmp_path / "rollouts.mcap").read_bytes()
+    previous = -1
+    for fraction in np.linspace(0.02, 0.98, 25):
+        cut = tmp_path / "cut.mcap"
+        cut.write_bytes(data[: int(len(data) * fraction)])
+        log = read_run_log(cut)
+        trials = log.trials["trial"].tolist() if len(log.trials) else []
+        assert trials == list(range(len(trials))) and log.truncated
+        assert all(len(log.rollout(t)) == 21 for t in trials)
+        assert len(trials) >= previous  # more bytes never lose a trial
+        previous = len(trials)
+    assert previous >= 3

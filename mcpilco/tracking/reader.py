@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import struct
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -10,7 +11,8 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from mcap.exceptions import McapError
+import zstandard
+from mcap.exceptions import InvalidMagic, McapError
 from mcap.records import Channel, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap_protobuf.decoder import DecoderFactory
@@ -28,7 +30,9 @@ def _records(path: Path) -> Iterator[Any]:
         reader = StreamReader(handle, validate_crcs=True)
         try:
             yield from reader.records
-        except (McapError, EOFError, ValueError) as error:
+        except InvalidMagic as error:
+            raise ValueError(f"{path} is not an MCAP file (bad magic bytes)") from error
+        except (McapError, EOFError, ValueError, struct.error, zstandard.ZstdError) as error:
             raise TruncatedLogError(f"{path} ends early ({type(error).__name__})") from error
 
 
