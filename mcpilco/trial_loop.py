@@ -69,17 +69,8 @@ class TrialLoop:
         self.storage = storage
         self.streams = streams
         self.num_trials = num_trials
-        like = next(components.policy.parameters())
-        system = components.system
-        self.rollout = ParticleRollout(
-            model=components.model,
-            policy=components.policy,
-            cost=components.cost,
-            estimator=components.estimator,
-            initial_mean=torch.as_tensor(system.initial_mean, dtype=like.dtype, device=like.device),
-            initial_std=torch.as_tensor(system.initial_std, dtype=like.dtype, device=like.device),
-            horizon=system.num_steps,
-        )
+        c = components
+        self.rollout = ParticleRollout.for_system(c.system, c.model, c.policy, c.cost, c.estimator)
         self.trajectories: list[Trajectory] = []
 
     def run(

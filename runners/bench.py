@@ -86,16 +86,7 @@ def time_steps(dtype: str, n: int, steps: int, warmup: int) -> tuple[float, floa
     if c.model.gp.train_inputs.shape[0] != n:  # trim to exactly n points
         c.model.gp.set_data(c.model.gp.train_inputs[:n], c.model.gp.train_targets[:n])
         c.model.gp.precompute()
-    like = next(c.policy.parameters())
-    rollout = ParticleRollout(
-        c.model,
-        c.policy,
-        c.cost,
-        c.estimator,
-        torch.as_tensor(c.system.initial_mean, dtype=like.dtype),
-        torch.as_tensor(c.system.initial_std, dtype=like.dtype),
-        c.system.num_steps,
-    )
+    rollout = ParticleRollout.for_system(c.system, c.model, c.policy, c.cost, c.estimator)
     optimizer = torch.optim.Adam(c.policy.parameters(), lr=0.01)
     particles = c.optimizer.num_particles
     times = []

@@ -10,6 +10,7 @@ from torch import nn
 from mcpilco.estimators.base import StateEstimator
 from mcpilco.models.base import ModelStructure
 from mcpilco.policies.rbf import SquashedRBFPolicy
+from mcpilco.systems.base import MechanicalSystem
 
 
 @dataclass
@@ -53,6 +54,27 @@ class ParticleRollout:
         self.initial_mean = initial_mean
         self.initial_std = initial_std
         self.horizon = horizon
+
+    @classmethod
+    def for_system(
+        cls,
+        system: MechanicalSystem,
+        model: ModelStructure,
+        policy: SquashedRBFPolicy,
+        cost: nn.Module,
+        estimator: StateEstimator,
+    ) -> ParticleRollout:
+        """A rollout from the system's p(x0) over one trial, in the policy's dtype/device."""
+        like = next(policy.parameters())
+        return cls(
+            model=model,
+            policy=policy,
+            cost=cost,
+            estimator=estimator,
+            initial_mean=torch.as_tensor(system.initial_mean, dtype=like.dtype, device=like.device),
+            initial_std=torch.as_tensor(system.initial_std, dtype=like.dtype, device=like.device),
+            horizon=system.num_steps,
+        )
 
     def __call__(
         self, num_particles: int, dropout: float, generator: torch.Generator | None
