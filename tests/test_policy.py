@@ -41,6 +41,11 @@ def test_dropout_rate_and_scaling(generator: torch.Generator) -> None:
     for probability in (0.25, 0.125):
         dropped = (bits < round(256 * probability)).double().mean()
         assert float(dropped) == pytest.approx(probability, abs=0.005)
+        # every byte of the underlying 64-bit draws is uniform (no biased top byte)
+        by_position = (bits.reshape(-1, 8) < round(256 * probability)).double().mean(0)
+        torch.testing.assert_close(
+            by_position, torch.full_like(by_position, probability), atol=0.01, rtol=0.0
+        )
     # The expected pre-squash output under dropout equals the deterministic one.
     x = torch.randn(1, 4, generator=generator, dtype=torch.float64).expand(20000, 4)
     many_bits = policy.dropout_bits(1, 20000, generator)[0]
@@ -56,13 +61,14 @@ def test_gradcheck_fused_policy(generator: torch.Generator) -> None:
     dtype = torch.float64
     x = torch.randn(7, 3, generator=generator, dtype=dtype, requires_grad=True)
     inverse = (0.5 + torch.rand(3, generator=generator, dtype=dtype)).requires_grad_()
-    centres = torch.randn(5, 3, generator=generator, dtype=dtype, requires_grad=True)
+    twice_centres_t = torch.randn(3, 5, generator=generator, dtype=dtype, requires_grad=True)
+    offset = torch.randn(5, generator=generator, dtype=dtype, requires_grad=True)
     weights = torch.randn(5, 2, generator=generator, dtype=dtype, requires_grad=True)
     bits = torch.randint(0, 256, (7, 5), generator=generator, dtype=torch.uint8)
     for mask_bits, threshold in ((bits, 64), (None, 0)):
         assert gradcheck(
             lambda *a, b=mask_bits, k=threshold: _SquashedRBF.apply(*a, b, k, 3.0),
-            (x, inverse, centres, weights),
+            (x, inverse, twice_centres_t, offset, weights),
         )
 
 

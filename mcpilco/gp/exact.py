@@ -11,15 +11,19 @@ from torch import nn
 
 from mcpilco.errors import ConfigError
 from mcpilco.gp.linalg import cholesky_with_jitter
-from mcpilco.gp.prediction import VARIANCE_FLOOR, mean_and_quadratic, posterior_sample
+from mcpilco.gp.prediction import (
+    VARIANCE_FLOOR,
+    mean_and_quadratic,
+    posterior_sample,
+    solve_matrix,
+)
 from mcpilco.kernels.base import Kernel, PreparedKernel
 
 
 @dataclass
 class _PredictionCache:
     kernel: PreparedKernel  # x* [M, D] -> (k(x*, X) [G, M, N], k(x*, x*) [G, M])
-    inverse_gram: torch.Tensor  # [G, N, N]
-    alpha: torch.Tensor  # [G, N]
+    solve: torch.Tensor  # [Γ⁻¹ | α]: [G, N, N+1]
 
 
 class ExactGP(nn.Module):
@@ -96,7 +100,9 @@ class ExactGP(nn.Module):
         factor = self._gram_factor()
         inverse_gram = torch.cholesky_inverse(factor)
         alpha = torch.matmul(inverse_gram, self.train_targets.T.unsqueeze(-1)).squeeze(-1)
-        self._cache = _PredictionCache(self.kernel.prepare(self.train_inputs), inverse_gram, alpha)
+        self._cache = _PredictionCache(
+            self.kernel.prepare(self.train_inputs), solve_matrix(inverse_gram, alpha)
+        )
 
     def predict(self, inputs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Posterior of the latent function at ``inputs [M, D]``.
@@ -108,7 +114,7 @@ class ExactGP(nn.Module):
         """
         cache = self._prediction_cache()
         cross, prior_variance = cache.kernel(inputs)  # [G, M, N], [G, M]
-        mean, quadratic = mean_and_quadratic(cross, cache.inverse_gram, cache.alpha)
+        mean, quadratic = mean_and_quadratic(cross, cache.solve)
         return mean, (prior_variance - quadratic).clamp_min(VARIANCE_FLOOR)
 
     def sample(self, inputs: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
@@ -116,7 +122,7 @@ class ExactGP(nn.Module):
         ``inputs [M, D]`` with standard-normal ``noise [G, M]`` (one fused op)."""
         cache = self._prediction_cache()
         cross, prior_variance = cache.kernel(inputs)
-        return posterior_sample(cross, prior_variance, cache.inverse_gram, cache.alpha, noise)
+        return posterior_sample(cross, prior_variance, cache.solve, noise)
 
     def _prediction_cache(self) -> _PredictionCache:
         if self._cache is None:

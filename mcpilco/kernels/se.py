@@ -43,7 +43,7 @@ class _PreparedCross(torch.autograd.Function):
     def covariance(
         z1: torch.Tensor, twice_z2_t: torch.Tensor, offset: torch.Tensor
     ) -> torch.Tensor:
-        exponent = torch.baddbmm(-offset, z1, twice_z2_t)
+        exponent = torch.matmul(z1, twice_z2_t).sub_(offset)  # in-place broadcast: no copy
         exponent.sub_(z1.square().sum(-1, keepdim=True))
         return exponent.exp_()
 

@@ -14,28 +14,37 @@ from mcpilco.errors import ConfigError
 
 
 class _SquashedRBF(torch.autograd.Function):
-    """u_max tanh((mask ⊙ exp(−‖x ⊙ ι − c_i‖²)) W) for inputs x ``[M, d]``, inverse
-    length-scales ι ``[d]``, scaled centres c ``[n_b, d]``, weights W ``[n_b, d_u]`` (already
-    divided by u_max); the 0/1 mask ``[M, n_b]`` keeps entries whose random byte in
-    ``bits`` is at least ``threshold`` (no mask when ``bits`` is None).
+    """u_max tanh((mask ⊙ exp(z C − |z|² + b)) W) for inputs x ``[M, d]``, z = x ⊙ ι with
+    inverse length-scales ι ``[d]``; ``C = 2 cᵀ`` ``[d, n_b]`` and ``b = −|c_i|²`` ``[n_b]``
+    for scaled centres c (so the exponent is −‖z − c_i‖²), weights W ``[n_b, d_u]``
+    (already divided by u_max); the 0/1 mask ``[M, n_b]`` keeps entries whose random byte
+    in ``bits`` is at least ``threshold`` (no mask when ``bits`` is None). C and b depend
+    only on the parameters: the policy computes them once per rollout.
 
     Hand-written backward, one node instead of a dozen: with A the masked activations,
-    g_h = g u_max (1 − tanh²) and h = (g_h Wᵀ) ⊙ A: g_W = Aᵀ g_h,
-    g_z = 2 (h c − z Σ_i h) for z = x ⊙ ι (so g_x = g_z ⊙ ι, g_ι = Σ_m g_z ⊙ x),
-    g_c = 2 (hᵀ z − c Σ_m h). Passes over the ``[M, n_b]`` arrays are in place (recomputing A
-    in backward instead of storing it was measured slower).
+    g_h = g u_max (1 − tanh²) and h = (g_h Wᵀ) ⊙ A: g_W = Aᵀ g_h, g_C = zᵀ h, g_b = Σ_m h,
+    g_z = h Cᵀ − 2 z Σ_i h (so g_x = g_z ⊙ ι, g_ι = Σ_m g_z ⊙ x). Passes over the
+    ``[M, n_b]`` arrays are in place (recomputing A in backward instead of storing it was
+    measured slower).
     """
 
     @staticmethod
     def activations(
-        z: torch.Tensor, centres: torch.Tensor, bits: torch.Tensor | None, threshold: int
+        z: torch.Tensor,
+        twice_centres_t: torch.Tensor,
+        centre_offset: torch.Tensor,
+        bits: torch.Tensor | None,
+        threshold: int,
     ) -> torch.Tensor:
         """Masked activations A ``[M, n_b]``, computed in place in one fresh buffer."""
-        exponent = torch.addmm(-centres.square().sum(-1), z, 2.0 * centres.T)
+        exponent = torch.mm(z, twice_centres_t).add_(centre_offset)
         exponent.sub_(z.square().sum(-1, keepdim=True))
         activations = exponent.exp_()
         if bits is not None:
-            activations.masked_fill_(bits < threshold, 0.0)
+            # keep = 1 where byte >= threshold else 0, as float arithmetic: measured 4x
+            # faster than masked_fill_ with a comparison's bool mask on CPU.
+            keep = bits.to(activations.dtype).sub_(threshold - 1).clamp_(0.0, 1.0)
+            activations.mul_(keep)
         return activations
 
     @staticmethod
@@ -43,17 +52,18 @@ class _SquashedRBF(torch.autograd.Function):
         ctx: Any,
         inputs: torch.Tensor,
         inverse_lengthscale: torch.Tensor,
-        centres: torch.Tensor,
+        twice_centres_t: torch.Tensor,
+        centre_offset: torch.Tensor,
         weights: torch.Tensor,
         bits: torch.Tensor | None,
         threshold: int,
         u_max: float,
     ) -> torch.Tensor:
         z = inputs * inverse_lengthscale
-        activations = _SquashedRBF.activations(z, centres, bits, threshold)
-        squashed = torch.matmul(activations, weights).tanh_()
+        activations = _SquashedRBF.activations(z, twice_centres_t, centre_offset, bits, threshold)
+        squashed = torch.mm(activations, weights).tanh_()
         ctx.save_for_backward(
-            inputs, inverse_lengthscale, z, centres, weights, squashed, activations
+            inputs, inverse_lengthscale, z, twice_centres_t, weights, squashed, activations
         )
         ctx.u_max = u_max
         return squashed * u_max
@@ -61,17 +71,26 @@ class _SquashedRBF(torch.autograd.Function):
     @staticmethod
     @once_differentiable
     def backward(ctx: Any, grad: torch.Tensor) -> tuple[torch.Tensor | None, ...]:
-        inputs, inverse, z, centres, weights, squashed, activations = ctx.saved_tensors
-        grad_hidden = grad * ctx.u_max * (1.0 - squashed.square())  # [M, d_u]
-        grad_weights = torch.matmul(activations.T, grad_hidden)
-        weighted = torch.matmul(grad_hidden, weights.T).mul_(activations)  # h [M, n_b]
-        grad_z = torch.matmul(weighted, centres).sub_(z * weighted.sum(-1, keepdim=True))
-        grad_z.mul_(2.0)
-        grad_centres = torch.matmul(weighted.T, z).sub_(centres * weighted.sum(0).unsqueeze(-1))
-        grad_centres.mul_(2.0)
+        inputs, inverse, z, twice_centres_t, weights, squashed, activations = ctx.saved_tensors
+        grad_hidden = squashed.square().sub_(1.0).mul_(grad).mul_(-ctx.u_max)  # [M, d_u]
+        grad_weights = torch.mm(activations.T, grad_hidden)
+        weighted = torch.mm(grad_hidden, weights.T).mul_(activations)  # h [M, n_b]
+        grad_offset = weighted.sum(0)
+        grad_twice_centres_t = torch.mm(z.T, weighted)
+        grad_z = torch.mm(weighted, twice_centres_t.T)
+        grad_z.addcmul_(z, weighted.sum(-1, keepdim=True), value=-2.0)
         grad_inputs = grad_z * inverse if ctx.needs_input_grad[0] else None
         grad_inverse = (grad_z * inputs).sum(0)
-        return grad_inputs, grad_inverse, grad_centres, grad_weights, None, None, None
+        return (
+            grad_inputs,
+            grad_inverse,
+            grad_twice_centres_t,
+            grad_offset,
+            grad_weights,
+            None,
+            None,
+            None,
+        )
 
 
 class SquashedRBFPolicy(nn.Module):
@@ -130,14 +149,15 @@ class SquashedRBFPolicy(nn.Module):
     ) -> torch.Tensor:
         """Uniform random bytes ``[steps, batch, n_b]`` for :meth:`prepare`.
 
-        Bytes are cut from 63-bit random integers (7 per draw): one generator call per
-        rollout instead of one float per mask entry, which dominates the CPU time otherwise.
+        The bytes of 64-bit random integers drawn on the full int64 range: one generator
+        call per rollout instead of one float per mask entry, which dominates the CPU time
+        otherwise.
         """
         count = steps * batch * self.num_basis
-        draws = torch.empty((count + 6) // 7, dtype=torch.int64, device=self.weights.device)
-        draws.random_(generator=generator)  # uniform on [0, 2^63)
-        low_bytes = draws.view(torch.uint8).view(-1, 8)[:, :7]  # little-endian: top byte < 128
-        return low_bytes.reshape(-1)[:count].view(steps, batch, self.num_basis)
+        draws = torch.empty((count + 7) // 8, dtype=torch.int64, device=self.weights.device)
+        # uniform on [-2^63, 2^63 - 1): all eight bytes uniform (bias 2^-64)
+        draws.random_(-(2**63), 2**63 - 1, generator=generator)
+        return draws.view(torch.uint8)[:count].view(steps, batch, self.num_basis)
 
     def prepare(self) -> Callable[..., torch.Tensor]:
         """``act(inputs [M, d_π], bits [M, n_b] | None, dropout) ↦ actions [M, d_u]`` with
@@ -149,18 +169,23 @@ class SquashedRBFPolicy(nn.Module):
         """
         inverse = torch.exp(-self.log_lengthscale)
         scaled_centres = self.centres * inverse  # [n_b, d_π]
+        twice_centres_t = (2.0 * scaled_centres).T.contiguous()  # [d_π, n_b]
+        centre_offset = -scaled_centres.square().sum(-1)  # [n_b]
         weights = self.weights / self.u_max
+        weights_by_threshold: dict[int, torch.Tensor] = {0: weights}
 
         def act(
             inputs: torch.Tensor, bits: torch.Tensor | None = None, dropout: float = 0.0
         ) -> torch.Tensor:
             threshold = round(dropout * 256) if bits is not None else 0
-            scaled_weights = weights if threshold == 0 else weights / (1.0 - threshold / 256)
+            if threshold not in weights_by_threshold:
+                weights_by_threshold[threshold] = weights / (1.0 - threshold / 256)
             return _SquashedRBF.apply(
                 inputs,
                 inverse,
-                scaled_centres,
-                scaled_weights,
+                twice_centres_t,
+                centre_offset,
+                weights_by_threshold[threshold],
                 bits if threshold else None,
                 threshold,
                 self.u_max,
