@@ -87,12 +87,14 @@ def build(cfg: DictConfig) -> Experiment:
         u_max=system.u_max,
         generator=streams.policy_init,
     )
+    estimator = make(cfg.estimator, system=system)
+    model.check_estimator(estimator)
     components = Components(
         system=system,
         model=model.to(dtype=dtype, device=device),
         policy=policy.to(dtype=dtype, device=device),
         cost=make(cfg.cost).to(dtype=dtype, device=device),
-        estimator=make(cfg.estimator),
+        estimator=estimator,
         optimizer=make(cfg.optimizer),
         exploration=partial(make(cfg.exploration), action_dim=system.action_dim),
     )

@@ -13,7 +13,7 @@ class Trajectory:
 
     Attributes:
         states: true states ``[T+1, d_x]`` (SI units, angles in rad, not wrapped).
-        measurements: what the sensors returned ``[T+1, d_x]`` (noisy ``states``).
+        measurements: what the sensors returned ``[T+1, d_y]`` (noisy, possibly partial).
         actions: inputs applied ``[T, d_u]``, held constant over each sample (ZOH).
         dt: sampling time in seconds.
     """

@@ -38,7 +38,15 @@ def test_every_group_is_known() -> None:
     "choice", list(itertools.product(*[options(g) for g in GROUPS])), ids=lambda c: "-".join(c)
 )
 def test_every_combination_composes_and_builds(choice: tuple[str, ...]) -> None:
-    cfg = make_config(*[f"{g}={o}" for g, o in zip(GROUPS, choice, strict=True)])
+    overrides = [f"{g}={o}" for g, o in zip(GROUPS, choice, strict=True)]
+    chosen = dict(zip(GROUPS, choice, strict=True))
+    if chosen["estimator"] != "none":
+        overrides.append("system.measured_indices=[0,2]")  # velocity estimators: PMS
+    cfg = make_config(*overrides)
+    if chosen["model"] == "derivative_free" and chosen["estimator"] != "none":
+        with pytest.raises(ConfigError, match="estimator=none"):  # DF learns from raw readings
+            build(cfg)
+        return
     experiment = build(cfg)
     assert (
         experiment.components.model.new_gp().num_outputs == experiment.components.model.num_outputs

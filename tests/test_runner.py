@@ -7,6 +7,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 import torch
@@ -15,6 +16,7 @@ from omegaconf import OmegaConf
 from analysis.summary import load_runs, markdown
 from mcpilco.errors import NotPositiveDefiniteError
 from mcpilco.run_storage import RunDirectory
+from mcpilco.tracking import read_run_log
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = [
@@ -133,3 +135,22 @@ def test_rerun_in_a_used_directory_continues_only_the_same_experiment(tmp_path: 
     assert pd.read_csv(tmp_path / "summary.csv")["trial"].tolist() == [0, 1]
     other = run_train(*TINY, "num_trials=1", "kernel=sp", f"hydra.run.dir={tmp_path}")
     assert other.returncode == 2 and "holds a different run" in other.stderr + other.stdout
+
+
+def test_partially_measured_run_logs_position_readings(tmp_path: Path) -> None:
+    """MC-PILCO4PMS end to end: positions-only readings, Kalman estimator, MCAP + Rerun."""
+    result = run_train(
+        *TINY,
+        "num_trials=1",
+        "system.measured_indices=[0,2]",
+        "estimator=kalman",
+        "tracking.rerun=save",
+        f"hydra.run.dir={tmp_path}",
+    )
+    assert result.returncode == 0, result.stderr[-2000:]
+    trajectory = RunDirectory(tmp_path).load_trajectory(1)
+    assert trajectory.measurements.shape == (21, 2) and trajectory.states.shape == (21, 4)
+    np.testing.assert_allclose(trajectory.measurements, trajectory.states[:, [0, 2]], atol=0.05)
+    log = read_run_log(tmp_path / "rollouts.mcap")
+    assert {"measurement_0", "measurement_1"} <= set(log.rollouts.columns)
+    assert "measurement_2" not in log.rollouts.columns

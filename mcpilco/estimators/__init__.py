@@ -1,6 +1,16 @@
 """State estimators: offline (training data) and online (closed loop, simulated in rollouts)."""
 
 from mcpilco.estimators.base import StateEstimator
+from mcpilco.estimators.difference import CausalDifference, ZeroPhaseDifference
 from mcpilco.estimators.identity import FullStateMeasurement
+from mcpilco.estimators.kalman import KalmanEstimator
+from mcpilco.estimators.positions import PositionBasedEstimator
 
-__all__ = ["FullStateMeasurement", "StateEstimator"]
+__all__ = [
+    "CausalDifference",
+    "FullStateMeasurement",
+    "KalmanEstimator",
+    "PositionBasedEstimator",
+    "StateEstimator",
+    "ZeroPhaseDifference",
+]

@@ -6,10 +6,20 @@ import numpy as np
 import torch
 
 from mcpilco.estimators.base import StateEstimator
+from mcpilco.systems.base import MechanicalSystem
 
 
 class FullStateMeasurement(StateEstimator):
-    """The estimate is the measurement, offline and online."""
+    """The estimate is the raw reading, offline and online. State-based models need every
+    component measured (checked by :meth:`ModelStructure.check_estimator`); the
+    derivative-free model takes position readings as they are.
+
+    Args:
+        system: accepted for a uniform constructor (all estimators are built with it).
+    """
+
+    def __init__(self, system: MechanicalSystem | None = None) -> None:
+        self.system = system
 
     def offline(self, measurements: np.ndarray, dt: float) -> np.ndarray:
         return measurements

@@ -1,8 +1,16 @@
 """Model structures: how GP predictions become particle transitions."""
 
 from mcpilco.models.base import FitReport, ModelStructure
+from mcpilco.models.derivative_free import DerivativeFree
 from mcpilco.models.features import AngleFeatures
 from mcpilco.models.full_state import FullState
 from mcpilco.models.speed_integration import SpeedIntegration
 
-__all__ = ["AngleFeatures", "FitReport", "FullState", "ModelStructure", "SpeedIntegration"]
+__all__ = [
+    "AngleFeatures",
+    "DerivativeFree",
+    "FitReport",
+    "FullState",
+    "ModelStructure",
+    "SpeedIntegration",
+]

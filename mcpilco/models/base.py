@@ -12,6 +12,7 @@ import torch
 from torch import nn
 
 from mcpilco.errors import ConfigError
+from mcpilco.estimators.base import StateEstimator
 from mcpilco.gp.exact import ExactGP
 from mcpilco.gp.fit import MarginalLikelihoodFit
 from mcpilco.gp.reduction import reduce_dataset
@@ -127,6 +128,27 @@ class ModelStructure(nn.Module, ABC):
     def output_basis(self, gp_inputs: torch.Tensor) -> torch.Tensor:
         """Physically-inspired features ``[G, N, P]`` of GP inputs ``[N, D]`` (SP kernel)."""
         raise NotImplementedError
+
+    def check_estimator(self, estimator: StateEstimator) -> None:
+        """Refuse an estimator this structure cannot learn from (before any work): a
+        state-based model needs full states, so raw readings must hold every component."""
+        if estimator.is_identity and not self.system.sensors.measures_everything:
+            raise ConfigError(
+                "estimator=none needs the full state measured, but system.measured_indices="
+                f"{list(self.system.sensors.measured)}: pick a velocity estimator "
+                "(estimator=difference|lowpass|zero_phase|kalman) or model=derivative_free"
+            )
+
+    def closed_loop_state(
+        self,
+        previous: torch.Tensor | None,
+        estimate: torch.Tensor,
+        previous_action: torch.Tensor | None,
+    ) -> torch.Tensor:
+        """What :meth:`policy_inputs` reads in closed loop on the system, from the online
+        estimate ``[B, ·]`` (and, for structures with memory, the previous one and the last
+        action ``[B, d_u]``). State-based structures: the estimate itself."""
+        return estimate
 
     # ------------------------------------------------------------------------ shared
     def dataset(

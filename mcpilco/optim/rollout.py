@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import torch
 from torch import nn
@@ -11,6 +12,7 @@ from mcpilco.estimators.base import StateEstimator
 from mcpilco.models.base import ModelStructure
 from mcpilco.policies.rbf import SquashedRBFPolicy
 from mcpilco.systems.base import MechanicalSystem
+from mcpilco.systems.sensors import Sensors
 
 
 @dataclass
@@ -25,8 +27,10 @@ class RolloutResult:
 class ParticleRollout:
     """Propagates M particles from p(x0) for T steps under a policy.
 
-    Per step: the online estimator turns each particle's state into what the policy sees,
-    the policy acts (with a fresh dropout mask per particle and step), the model samples the
+    Per step: the online estimator turns a simulated sensor reading of each particle
+    (fictitious Gaussian and quantisation noise, thesis §3.2) into what the policy sees —
+    with full-state measurement the policy sees the particle itself — the policy acts
+    (with a fresh dropout mask per particle and step), the model samples the
     next particle with pre-drawn standard-normal noise (reparameterisation trick). All
     random numbers of a rollout are drawn up front in a few batched calls.
 
@@ -35,6 +39,8 @@ class ParticleRollout:
         cost: c(x) on states ``[..., d_x]``. estimator: online estimator.
         initial_mean, initial_std: p(x0) = N(mean, diag(std²)), ``[d_x]`` each.
         horizon: T.
+        sensors: the system's sensors, simulated on the particles for a non-identity
+            estimator (None: the estimator must be the identity).
     """
 
     def __init__(
@@ -46,7 +52,11 @@ class ParticleRollout:
         initial_mean: torch.Tensor,
         initial_std: torch.Tensor,
         horizon: int,
+        sensors: Sensors | None = None,
     ) -> None:
+        if sensors is None and not estimator.is_identity:
+            raise ValueError("a rollout with an online estimator needs the system's sensors")
+        self.sensors = sensors
         self.model = model
         self.policy = policy
         self.cost = cost
@@ -74,6 +84,7 @@ class ParticleRollout:
             initial_mean=torch.as_tensor(system.initial_mean, dtype=like.dtype, device=like.device),
             initial_std=torch.as_tensor(system.initial_std, dtype=like.dtype, device=like.device),
             horizon=system.num_steps,
+            sensors=system.sensors,
         )
 
     def __call__(
@@ -90,6 +101,7 @@ class ParticleRollout:
             if dropout > 0
             else None
         )
+        readings = self._reading_noise(num_particles, generator, like)
         act = self.policy.prepare()
         particles = self.model.initial_particles(self.initial_mean + self.initial_std * start)
         states = [self.model.physical_state(particles)]
@@ -101,7 +113,12 @@ class ParticleRollout:
                 encoded = self.model.encode(particles)
                 policy_inputs = self.model.policy_inputs_from_encoded(encoded)
             else:
-                estimate, memory = self.estimator.online_step(states[-1], memory)
+                assert self.sensors is not None and readings is not None
+                gaussian, uniform = readings
+                reading = self.sensors.simulate(
+                    states[-1], gaussian[t], None if uniform is None else uniform[t]
+                )
+                estimate, memory = self.estimator.online_step(reading, memory)
                 encoded, policy_inputs = None, self.model.policy_inputs(estimate)
             actions = act(policy_inputs, None if bits is None else bits[t], dropout)
             particles = self.model.step(particles, actions, noise[t], encoded)
@@ -109,3 +126,15 @@ class ParticleRollout:
         trajectory = torch.stack(states)  # [T+1, M, d_x]
         step_costs = self.cost(trajectory).mean(-1)  # [T+1]
         return RolloutResult(step_costs.sum(), step_costs, trajectory)
+
+    def _reading_noise(
+        self, num_particles: int, generator: torch.Generator | None, like: dict[str, Any]
+    ) -> tuple[torch.Tensor, torch.Tensor | None] | None:
+        """Standard-normal ``[T, M, d_y]`` and U(0,1) ``[T, M, d_y]`` (only if quantised)
+        draws for the simulated readings; None with an identity estimator."""
+        if self.estimator.is_identity or self.sensors is None:
+            return None
+        shape = (self.horizon, num_particles, self.sensors.reading_dim)
+        gaussian = torch.randn(shape, generator=generator, **like)
+        uniform = torch.rand(shape, generator=generator, **like) if self.sensors.quantised else None
+        return gaussian, uniform

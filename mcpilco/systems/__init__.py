@@ -2,5 +2,6 @@
 
 from mcpilco.systems.base import Controller, MechanicalSystem, OdeSystem
 from mcpilco.systems.cartpole import CartPole
+from mcpilco.systems.sensors import Sensors
 
-__all__ = ["CartPole", "Controller", "MechanicalSystem", "OdeSystem"]
+__all__ = ["CartPole", "Controller", "MechanicalSystem", "OdeSystem", "Sensors"]

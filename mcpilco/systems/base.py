@@ -11,6 +11,7 @@ import torch
 from scipy.integrate import solve_ivp
 
 from mcpilco.errors import ConfigError
+from mcpilco.systems.sensors import Sensors
 from mcpilco.trajectory import Trajectory
 
 
@@ -38,9 +39,12 @@ class MechanicalSystem(ABC):
         trial_duration: length of one trial in seconds.
         u_max: bound on every action component (|u| ≤ u_max).
         measurement_noise_std: std of the additive white Gaussian sensor noise, one value
-            per state component or one for all.
+            per measured component or one for all.
         initial_mean: mean of p(x0), ``[d_x]``.
         initial_std: std of p(x0) (diagonal), one value per component or one for all.
+        measured_indices: the state components the sensors read (None: all; a partially
+            measurable system reads positions only, see :class:`Sensors`).
+        quantization: resolution of the readings (encoders, cameras), None for none.
     """
 
     position_indices: tuple[int, ...] = ()
@@ -58,15 +62,15 @@ class MechanicalSystem(ABC):
         measurement_noise_std: float | Sequence[float],
         initial_mean: Sequence[float],
         initial_std: float | Sequence[float],
+        measured_indices: Sequence[int] | None = None,
+        quantization: float | Sequence[float] | None = None,
     ) -> None:
         self.dt = _positive("dt", dt)
         self.trial_duration = _positive("trial_duration", trial_duration)
         self.u_max = _positive("u_max", u_max)
-        self.measurement_noise_std = self._per_state("measurement_noise_std", measurement_noise_std)
-        if np.any(self.measurement_noise_std <= 0):
-            raise ConfigError(
-                f"system.measurement_noise_std must be > 0, got {measurement_noise_std!r}"
-            )
+        self.sensors = Sensors(
+            self.state_dim, measured_indices, measurement_noise_std, quantization
+        )
         self.initial_mean = np.asarray(initial_mean, dtype=np.float64)
         if self.initial_mean.shape != (self.state_dim,):
             raise ConfigError(
@@ -102,8 +106,8 @@ class MechanicalSystem(ABC):
         return self.initial_mean + self.initial_std * rng.standard_normal(self.state_dim)
 
     def measure(self, state: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """The sensors' reading of ``state`` ``[d_x]``: additive Gaussian noise."""
-        return state + self.measurement_noise_std * rng.standard_normal(state.shape)
+        """The sensors' reading ``[d_y]`` of ``state`` ``[d_x]`` (see :class:`Sensors`)."""
+        return self.sensors.read(state, rng)
 
     @abstractmethod
     def step(self, state: np.ndarray, action: np.ndarray) -> np.ndarray:
@@ -114,7 +118,7 @@ class MechanicalSystem(ABC):
     ) -> Trajectory:
         """Run ``controller`` in closed loop from ``x0`` for ``num_steps`` samples."""
         states = np.empty((num_steps + 1, self.state_dim))
-        measurements = np.empty_like(states)
+        measurements = np.empty((num_steps + 1, self.sensors.reading_dim))
         actions = np.empty((num_steps, self.action_dim))
         states[0] = x0
         measurements[0] = self.measure(x0, rng)

@@ -48,9 +48,18 @@ class CartPole(OdeSystem):
         success_angle_deg: float = 10.0,
         success_window: float = 1.0,
         eval_length_scale: float = 0.25,
+        measured_indices: Sequence[int] | None = None,
+        quantization: float | Sequence[float] | None = None,
     ) -> None:
         super().__init__(
-            dt, trial_duration, u_max, measurement_noise_std, initial_mean, initial_std
+            dt,
+            trial_duration,
+            u_max,
+            measurement_noise_std,
+            initial_mean,
+            initial_std,
+            measured_indices,
+            quantization,
         )
         self.cart_mass = cart_mass
         self.pole_mass = pole_mass

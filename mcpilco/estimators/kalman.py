@@ -1,0 +1,135 @@
+"""Kalman filter (online) and Rauch–Tung–Striebel smoother (offline) with a
+constant-acceleration model per measured position."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import torch
+
+from mcpilco.errors import ConfigError
+from mcpilco.estimators.positions import PositionBasedEstimator
+from mcpilco.systems.base import MechanicalSystem
+
+
+class KalmanEstimator(PositionBasedEstimator):
+    """Each position q follows a constant-acceleration model with white jerk: hidden
+    state ``s = [q, q̇, q̈]``, ``s_{t+1} = A s_t + w_t``, reading ``y_t = q_t + e_t`` with
+    Var(e) = the sensors' σ² + r²/12. ``Q = j² Γ`` with Γ the integrated-white-jerk matrix
+    for sampling time dt and j² = ``jerk_psd`` (units²/s⁵).
+
+    The filter starts from ``s_0 = [y_0, 0, 0]`` (at rest) with covariance
+    diag(Var(e), ``initial_velocity_std``², ``initial_acceleration_std``²). The covariances
+    and gains do not depend on the data, so the gains are computed once (numpy) and the
+    online step is three batched torch operations, differentiable in the readings.
+
+    Args:
+        system: the plant. jerk_psd: j², one per position or one for all.
+        initial_velocity_std, initial_acceleration_std: prior spread at t = 0.
+    """
+
+    name = "kalman"
+
+    def __init__(
+        self,
+        system: MechanicalSystem,
+        jerk_psd: float | Sequence[float] = 1e4,
+        initial_velocity_std: float = 0.1,
+        initial_acceleration_std: float = 1.0,
+    ) -> None:
+        super().__init__(system, self.name)
+        psd = np.broadcast_to(np.asarray(jerk_psd, dtype=np.float64), (self.num_positions,))
+        if np.asarray(jerk_psd).size not in (1, self.num_positions) or np.any(~(psd > 0)):
+            raise ConfigError(
+                f"estimator.jerk_psd needs one positive value or {self.num_positions}, "
+                f"got {jerk_psd!r}"
+            )
+        for key, value in (
+            ("initial_velocity_std", initial_velocity_std),
+            ("initial_acceleration_std", initial_acceleration_std),
+        ):
+            if not value > 0:
+                raise ConfigError(f"estimator.{key} must be > 0, got {value!r}")
+        dt = self.dt
+        self.transition = np.array([[1.0, dt, dt**2 / 2], [0.0, 1.0, dt], [0.0, 0.0, 1.0]])
+        gamma = np.array(
+            [
+                [dt**5 / 20, dt**4 / 8, dt**3 / 6],
+                [dt**4 / 8, dt**3 / 3, dt**2 / 2],
+                [dt**3 / 6, dt**2 / 2, dt],
+            ]
+        )
+        self.process_noise = psd[:, None, None] * gamma  # [d_q, 3, 3]
+        variance = system.sensors.variance()[self.position_columns]  # [d_q]
+        self.reading_variance = variance
+        prior = np.zeros((self.num_positions, 3, 3))
+        prior[:, 0, 0] = variance
+        prior[:, 1, 1] = initial_velocity_std**2
+        prior[:, 2, 2] = initial_acceleration_std**2
+        self.initial_covariance = prior
+        self._gains: list[np.ndarray] = []  # K_t [d_q, 3] for t = 1, 2, ...
+        self._covariance = prior.copy()
+
+    # --------------------------------------------------------------- covariance pass
+    def _predict_update(self, covariance: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One step of the covariance recursion: (prior P⁻, gain K, posterior P)."""
+        a = self.transition
+        predicted = a @ covariance @ a.T + self.process_noise  # [d_q, 3, 3]
+        innovation = predicted[:, 0, 0] + self.reading_variance  # [d_q]
+        gain = predicted[:, :, 0] / innovation[:, None]  # [d_q, 3]
+        updated = predicted - gain[:, :, None] * predicted[:, None, 0, :]
+        return predicted, gain, updated
+
+    def gain(self, step: int) -> np.ndarray:
+        """Kalman gain ``[d_q, 3]`` used at ``step`` ≥ 1."""
+        while len(self._gains) < step:
+            _, gain, self._covariance = self._predict_update(self._covariance)
+            self._gains.append(gain)
+        return self._gains[step - 1]
+
+    # --------------------------------------------------------------------- offline
+    def smooth(self, positions: np.ndarray) -> np.ndarray:
+        """RTS-smoothed hidden states ``[T+1, d_q, 3]`` from positions ``[T+1, d_q]``."""
+        steps = positions.shape[0]
+        a = self.transition
+        filtered = np.zeros((steps, self.num_positions, 3))
+        filtered_cov = np.zeros((steps, self.num_positions, 3, 3))
+        predicted_cov = np.zeros_like(filtered_cov)
+        filtered[0, :, 0] = positions[0]
+        filtered_cov[0] = self.initial_covariance
+        for t in range(1, steps):
+            predicted_cov[t], gain, filtered_cov[t] = self._predict_update(filtered_cov[t - 1])
+            prior = filtered[t - 1] @ a.T
+            filtered[t] = prior + gain * (positions[t] - prior[:, 0])[:, None]
+        smoothed = filtered.copy()
+        for t in range(steps - 2, -1, -1):
+            back_gain = filtered_cov[t] @ a.T @ np.linalg.inv(predicted_cov[t + 1])
+            correction = smoothed[t + 1] - filtered[t] @ a.T
+            smoothed[t] = filtered[t] + np.einsum("qij,qj->qi", back_gain, correction)
+        return smoothed
+
+    def offline(self, measurements: np.ndarray, dt: float) -> np.ndarray:
+        smoothed = self.smooth(self.positions_of(measurements))
+        return self.assemble(smoothed[..., 0], smoothed[..., 1])
+
+    # ---------------------------------------------------------------------- online
+    def online_reset(self, batch_size: int, like: torch.Tensor) -> dict[str, Any]:
+        return {"state": None, "step": 0}
+
+    def online_step(
+        self, measurement: torch.Tensor, memory: dict[str, Any]
+    ) -> tuple[torch.Tensor, dict[str, Any]]:
+        positions = self.positions_of_tensor(measurement)  # [B, d_q]
+        step = memory["step"]
+        if memory["state"] is None:
+            zeros = torch.zeros_like(positions)
+            state = torch.stack([positions, zeros, zeros], dim=-1)  # [B, d_q, 3]
+        else:
+            like = {"dtype": positions.dtype, "device": positions.device}
+            prior = torch.matmul(memory["state"], torch.as_tensor(self.transition.T, **like))
+            gain = torch.as_tensor(self.gain(step), **like)
+            state = torch.addcmul(prior, (positions - prior[..., 0]).unsqueeze(-1), gain)
+        estimate = self.assemble_tensor(state[..., 0], state[..., 1])
+        return estimate, {"state": state, "step": step + 1}

@@ -1,0 +1,89 @@
+"""Derivative-free model structure: inputs written out by hand, histories, closed loop."""
+
+from __future__ import annotations
+
+from math import cos, sin
+
+import numpy as np
+import pytest
+import torch
+
+from mcpilco.errors import ConfigError
+from mcpilco.estimators import FullStateMeasurement, KalmanEstimator
+from mcpilco.models import DerivativeFree
+from mcpilco.systems import CartPole
+
+READINGS = np.array([[1.0, 0.5], [1.5, 0.7], [2.5, 0.6], [3.0, 1.0]])  # (p, θ) at t = 0..3
+ACTIONS = np.array([[10.0], [20.0], [30.0]])
+
+
+def make(inputs: str = "differences", m_q: int = 2, m_u: int = 1) -> DerivativeFree:
+    system = CartPole(measured_indices=[0, 2])
+    return DerivativeFree(system, None, None, None, m_q=m_q, m_u=m_u, inputs=inputs)  # type: ignore[arg-type]
+
+
+def test_difference_inputs_by_hand() -> None:
+    inputs, targets = make().dataset([READINGS], [ACTIONS])
+    expected = [
+        # p, sin θ, cos θ | Δq_{t-1} (p, θ) | Δq_{t-2} (p, θ) | u_t, u_{t-1}
+        [1.0, sin(0.5), cos(0.5), 0.0, 0.0, 0.0, 0.0, 10.0, 0.0],
+        [1.5, sin(0.7), cos(0.7), 0.5, 0.2, 0.0, 0.0, 20.0, 10.0],
+        [2.5, sin(0.6), cos(0.6), 1.0, -0.1, 0.5, 0.2, 30.0, 20.0],
+    ]
+    np.testing.assert_allclose(inputs.numpy(), expected, atol=1e-12)
+    np.testing.assert_allclose(targets.numpy(), [[0.5, 0.2], [1.0, -0.1], [0.5, 0.4]], atol=1e-12)
+
+
+def test_naive_inputs_by_hand() -> None:
+    inputs, _ = make("naive", m_q=1, m_u=0).dataset([READINGS], [ACTIONS])
+    expected = [
+        [1.0, sin(0.5), cos(0.5), 1.0, sin(0.5), cos(0.5), 10.0],
+        [1.5, sin(0.7), cos(0.7), 1.0, sin(0.5), cos(0.5), 20.0],
+        [2.5, sin(0.6), cos(0.6), 1.5, sin(0.7), cos(0.7), 30.0],
+    ]
+    np.testing.assert_allclose(inputs.numpy(), expected, atol=1e-12)
+
+
+@pytest.mark.parametrize("inputs", ["differences", "naive"])
+def test_closed_loop_history_rebuilds_the_training_inputs(inputs: str) -> None:
+    """Readings fed one by one (as on the system) give the same GP inputs as the data set,
+    and the model's transition with the recorded Δq reproduces the next history."""
+    model = make(inputs)
+    expected, targets = model.dataset([READINGS], [ACTIONS])
+    readings = torch.as_tensor(READINGS)
+    actions = torch.as_tensor(ACTIONS)
+    state, previous_action = None, None
+    for t in range(3):
+        state = model.closed_loop_state(state, readings[t : t + 1], previous_action)
+        np.testing.assert_allclose(
+            model.gp_inputs(state, actions[t : t + 1])[0].numpy(), expected[t].numpy()
+        )
+        following = model.transition(state, actions[t : t + 1], targets[t : t + 1].T)
+        rebuilt = model.closed_loop_state(state, readings[t + 1 : t + 2], actions[t : t + 1])
+        torch.testing.assert_close(following, rebuilt)
+        previous_action = actions[t : t + 1]
+
+
+def test_particles_start_at_rest_and_report_velocities() -> None:
+    model = make()
+    states = torch.tensor([[1.0, 5.0, 0.5, -3.0]], dtype=torch.float64)
+    particles = model.initial_particles(states)
+    assert particles.tolist() == [[1.0, 0.5, 1.0, 0.5, 1.0, 0.5, 0.0]]
+    np.testing.assert_allclose(model.physical_state(particles).numpy(), [[1.0, 0.0, 0.5, 0.0]])
+    moved = model.transition(particles, torch.tensor([[7.0]]), torch.tensor([[0.1], [-0.2]]))
+    np.testing.assert_allclose(moved.numpy(), [[1.1, 0.3, 1.0, 0.5, 1.0, 0.5, 7.0]])
+    velocity = model.physical_state(moved).numpy()[0, [1, 3]]
+    np.testing.assert_allclose(velocity, [0.1 / 0.05, -0.2 / 0.05])
+
+
+def test_inconsistent_derivative_free_configs_fail_with_the_key() -> None:
+    model = make()
+    with pytest.raises(ConfigError, match="estimator=none"):
+        model.check_estimator(KalmanEstimator(model.system))
+    model.check_estimator(FullStateMeasurement(model.system))  # raw readings: fine
+    with pytest.raises(ConfigError, match="measured_indices"):
+        DerivativeFree(CartPole(measured_indices=[0]), None, None, None)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match="model.m_q"):
+        make(m_q=0)
+    with pytest.raises(ConfigError, match="model.inputs"):
+        make("velocities")
