@@ -97,5 +97,6 @@ def build(cfg: DictConfig) -> Experiment:
         estimator=estimator,
         optimizer=make(cfg.optimizer),
         exploration=partial(make(cfg.exploration), action_dim=system.action_dim),
+        simulate_estimator=bool(cfg.get("simulate_estimator", True)),
     )
     return Experiment(components, streams, cfg.num_trials, dtype, device)

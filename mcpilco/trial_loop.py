@@ -42,6 +42,7 @@ class Components:
     estimator: StateEstimator
     optimizer: PolicyOptimizer
     exploration: ExplorationFactory
+    simulate_estimator: bool = True
 
 
 class TrialLoop:
@@ -70,7 +71,9 @@ class TrialLoop:
         self.streams = streams
         self.num_trials = num_trials
         c = components
-        self.rollout = ParticleRollout.for_system(c.system, c.model, c.policy, c.cost, c.estimator)
+        self.rollout = ParticleRollout.for_system(
+            c.system, c.model, c.policy, c.cost, c.estimator, c.simulate_estimator
+        )
         self.trajectories: list[Trajectory] = []
 
     def run(

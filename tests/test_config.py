@@ -18,7 +18,8 @@ from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
 
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "conf"
-GROUPS = sorted(p.name for p in CONFIG_DIR.iterdir() if p.is_dir())
+GROUPS = sorted(p.name for p in CONFIG_DIR.iterdir() if p.is_dir() and p.name != "experiment")
+EXPERIMENTS = sorted(p.stem for p in (CONFIG_DIR / "experiment").glob("*.yaml"))
 
 
 def options(group: str) -> list[str]:
@@ -34,16 +35,18 @@ def test_every_group_is_known() -> None:
     assert {"system", "kernel", "model", "policy", "cost", "optimizer", "estimator"} <= set(GROUPS)
 
 
-@pytest.mark.parametrize(
-    "choice", list(itertools.product(*[options(g) for g in GROUPS])), ids=lambda c: "-".join(c)
-)
-def test_every_combination_composes_and_builds(choice: tuple[str, ...]) -> None:
-    overrides = [f"{g}={o}" for g, o in zip(GROUPS, choice, strict=True)]
-    chosen = dict(zip(GROUPS, choice, strict=True))
-    if chosen["estimator"] != "none":
+INDEPENDENT = ("exploration", "optimizer")
+"""Groups whose options read nothing but the system (u_max, dt): each of their options is
+built with every system; all other groups are crossed in full."""
+COUPLED = [g for g in GROUPS if g not in INDEPENDENT]
+
+
+def build_choice(chosen: dict[str, str]) -> None:
+    overrides = [f"{g}={o}" for g, o in chosen.items()]
+    if chosen.get("estimator", "none") != "none":
         overrides.append("system.measured_indices=[0,2]")  # velocity estimators: PMS
     cfg = make_config(*overrides)
-    if chosen["model"] == "derivative_free" and chosen["estimator"] != "none":
+    if chosen.get("model") == "derivative_free" and chosen.get("estimator", "none") != "none":
         with pytest.raises(ConfigError, match="estimator=none"):  # DF learns from raw readings
             build(cfg)
         return
@@ -51,6 +54,37 @@ def test_every_combination_composes_and_builds(choice: tuple[str, ...]) -> None:
     assert (
         experiment.components.model.new_gp().num_outputs == experiment.components.model.num_outputs
     )
+
+
+@pytest.mark.parametrize(
+    "choice", list(itertools.product(*[options(g) for g in COUPLED])), ids=lambda c: "-".join(c)
+)
+def test_every_combination_composes_and_builds(choice: tuple[str, ...]) -> None:
+    build_choice(dict(zip(COUPLED, choice, strict=True)))
+
+
+@pytest.mark.parametrize(
+    "choice",
+    [
+        (group, option, system)
+        for group in INDEPENDENT
+        for option in options(group)
+        for system in options("system")
+    ],
+    ids=lambda c: "-".join(c),
+)
+def test_every_independent_option_builds_with_every_system(choice: tuple[str, str, str]) -> None:
+    group, option, system = choice
+    build_choice({group: option, "system": system})
+
+
+@pytest.mark.parametrize("experiment", EXPERIMENTS)
+@pytest.mark.parametrize("extra", [[], ["simulate_estimator=false"], ["kernel=sp"]])
+def test_experiment_presets_build(experiment: str, extra: list[str]) -> None:
+    cfg = make_config(f"+experiment={experiment}", *extra)
+    c = build(cfg).components
+    assert c.system.sensors.measured == (0, 2) and c.system.num_steps == 90
+    assert c.simulate_estimator == ("simulate_estimator=false" not in extra)
 
 
 def test_unknown_option_lists_the_choices() -> None:

@@ -79,3 +79,27 @@ def test_exploration_is_uniform_and_bounded() -> None:
     assert np.abs(actions).max() <= 10.0
     assert actions.mean() == pytest.approx(0.0, abs=0.3)
     assert actions.var() == pytest.approx(100.0 / 3.0, rel=0.08)
+
+
+def test_sum_of_sines_is_bounded_and_band_limited() -> None:
+    from mcpilco.policies import SumOfSinesExploration
+
+    dt = 1 / 30
+    explore = SumOfSinesExploration(10.0, 2, np.random.default_rng(0), dt, max_frequency_hz=2.0)
+    actions = np.array([explore(np.zeros(2), t) for t in range(3000)])  # 100 s
+    assert actions.shape == (3000, 2) and np.abs(actions).max() <= 10.0
+    spectrum = np.abs(np.fft.rfft(actions, axis=0)) ** 2
+    frequencies = np.fft.rfftfreq(3000, dt)
+    assert spectrum[frequencies > 2.1].sum() < 0.01 * spectrum.sum()
+
+
+def test_filtered_noise_has_the_requested_std_and_cutoff() -> None:
+    from mcpilco.policies import FilteredNoiseExploration
+
+    dt = 1 / 30
+    explore = FilteredNoiseExploration(100.0, 1, np.random.default_rng(0), dt, 1.5, std=2.0)
+    actions = np.array([explore(np.zeros(2), t) for t in range(30000)])[:, 0]
+    assert actions.std() == pytest.approx(2.0, rel=0.05)
+    spectrum = np.abs(np.fft.rfft(actions)) ** 2
+    frequencies = np.fft.rfftfreq(actions.size, dt)
+    assert spectrum[frequencies > 4.0].sum() < 0.02 * spectrum.sum()

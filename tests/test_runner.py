@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 import time
@@ -154,3 +155,32 @@ def test_partially_measured_run_logs_position_readings(tmp_path: Path) -> None:
     log = read_run_log(tmp_path / "rollouts.mcap")
     assert {"measurement_0", "measurement_1"} <= set(log.rollouts.columns)
     assert "measurement_2" not in log.rollouts.columns
+    evaluation = subprocess.run(
+        [sys.executable, "-m", "analysis.evaluate", str(tmp_path), "--runs", "4"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert evaluation.returncode == 0, evaluation.stderr[-2000:]
+    result = json.loads((tmp_path / "evaluation" / "trial_01.json").read_text())
+    assert result["runs"] == 4 and result["trial"] == 1 and result["simulate_estimator"]
+    assert 0 <= result["system_successes"] <= 4 and 0 <= result["model_successes"] <= 4
+    bad = subprocess.run(
+        [sys.executable, "-m", "analysis.evaluate", str(tmp_path), "--trial", "7"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
+    assert bad.returncode != 0 and "--trial=7" in bad.stderr
+
+
+def test_derivative_free_run_learns_from_position_readings(tmp_path: Path) -> None:
+    result = run_train(
+        *TINY, "num_trials=1", "+experiment=cartpole_df", f"hydra.run.dir={tmp_path}"
+    )
+    assert result.returncode == 0, result.stderr[-2000:]
+    model = RunDirectory(tmp_path).load_checkpoint(1, "model")
+    # 30 steps at 30 Hz; GP input [p, sin θ, cos θ, Δq_{t-1} (2), Δq_{t-2} (2), u_t, u_{t-1}]
+    assert model["train_inputs"].shape == (30, 9)
+    assert model["train_targets"].shape == (30, 2)

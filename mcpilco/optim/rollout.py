@@ -40,7 +40,7 @@ class ParticleRollout:
         initial_mean, initial_std: p(x0) = N(mean, diag(std²)), ``[d_x]`` each.
         horizon: T.
         sensors: the system's sensors, simulated on the particles for a non-identity
-            estimator (None: the estimator must be the identity).
+            estimator (None: the policy sees the particle itself).
     """
 
     def __init__(
@@ -54,8 +54,6 @@ class ParticleRollout:
         horizon: int,
         sensors: Sensors | None = None,
     ) -> None:
-        if sensors is None and not estimator.is_identity:
-            raise ValueError("a rollout with an online estimator needs the system's sensors")
         self.sensors = sensors
         self.model = model
         self.policy = policy
@@ -73,8 +71,11 @@ class ParticleRollout:
         policy: SquashedRBFPolicy,
         cost: nn.Module,
         estimator: StateEstimator,
+        simulate_estimator: bool = True,
     ) -> ParticleRollout:
-        """A rollout from the system's p(x0) over one trial, in the policy's dtype/device."""
+        """A rollout from the system's p(x0) over one trial, in the policy's dtype/device;
+        with ``simulate_estimator`` false the policy sees the particles instead of online
+        estimates of their simulated readings (MC-PILCO instead of MC-PILCO4PMS)."""
         like = next(policy.parameters())
         return cls(
             model=model,
@@ -84,7 +85,7 @@ class ParticleRollout:
             initial_mean=torch.as_tensor(system.initial_mean, dtype=like.dtype, device=like.device),
             initial_std=torch.as_tensor(system.initial_std, dtype=like.dtype, device=like.device),
             horizon=system.num_steps,
-            sensors=system.sensors,
+            sensors=system.sensors if simulate_estimator else None,
         )
 
     def __call__(
@@ -107,13 +108,13 @@ class ParticleRollout:
         states = [self.model.physical_state(particles)]
         memory = self.estimator.online_reset(num_particles, particles)
         for t in range(self.horizon):
-            if self.estimator.is_identity:
+            if readings is None:
                 # The policy sees the particle itself: encode its features once for both
                 # the policy and the GP input.
                 encoded = self.model.encode(particles)
                 policy_inputs = self.model.policy_inputs_from_encoded(encoded)
             else:
-                assert self.sensors is not None and readings is not None
+                assert self.sensors is not None
                 gaussian, uniform = readings
                 reading = self.sensors.simulate(
                     states[-1], gaussian[t], None if uniform is None else uniform[t]

@@ -1,6 +1,15 @@
 """Policies: the learned squashed-RBF network and exploration controllers."""
 
-from mcpilco.policies.exploration import UniformRandomExploration
+from mcpilco.policies.exploration import (
+    FilteredNoiseExploration,
+    SumOfSinesExploration,
+    UniformRandomExploration,
+)
 from mcpilco.policies.rbf import SquashedRBFPolicy
 
-__all__ = ["SquashedRBFPolicy", "UniformRandomExploration"]
+__all__ = [
+    "FilteredNoiseExploration",
+    "SquashedRBFPolicy",
+    "SumOfSinesExploration",
+    "UniformRandomExploration",
+]

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
+from scipy import signal
+
+from mcpilco.errors import ConfigError
 
 
 class UniformRandomExploration:
@@ -21,3 +24,81 @@ class UniformRandomExploration:
 
     def __call__(self, measurement: np.ndarray, step: int) -> np.ndarray:
         return self.rng.uniform(-self.u_max, self.u_max, size=self.action_dim)
+
+
+class SumOfSinesExploration:
+    """u(t) = Σ_k a_k sin(2π f_k t + φ_k) per action component (thesis §3.3), with random
+    amplitudes normalised to Σ_k a_k = ``amplitude`` (so |u| ≤ amplitude ≤ u_max),
+    frequencies f_k ~ U(``min_frequency_hz``, ``max_frequency_hz``), phases ~ U(0, 2π),
+    all drawn once from ``rng``.
+
+    Args:
+        u_max: action bound. action_dim: d_u. rng: random source (the system's).
+        dt: sampling time in s. num_sines: terms per component.
+        amplitude: peak bound of the sum (default u_max).
+    """
+
+    def __init__(
+        self,
+        u_max: float,
+        action_dim: int,
+        rng: np.random.Generator,
+        dt: float,
+        num_sines: int = 10,
+        min_frequency_hz: float = 0.1,
+        max_frequency_hz: float = 2.0,
+        amplitude: float | None = None,
+    ) -> None:
+        if num_sines < 1 or not 0 <= min_frequency_hz < max_frequency_hz < 0.5 / dt:
+            raise ConfigError(
+                f"exploration needs num_sines >= 1 and 0 <= min_frequency_hz < "
+                f"max_frequency_hz < {0.5 / dt:g} Hz (Nyquist), got {num_sines}, "
+                f"{min_frequency_hz}, {max_frequency_hz}"
+            )
+        peak = u_max if amplitude is None else min(amplitude, u_max)
+        weights = rng.uniform(0.0, 1.0, size=(action_dim, num_sines))
+        self.amplitudes = peak * weights / weights.sum(-1, keepdims=True)
+        self.frequencies = rng.uniform(min_frequency_hz, max_frequency_hz, (action_dim, num_sines))
+        self.phases = rng.uniform(0.0, 2 * np.pi, size=(action_dim, num_sines))
+        self.dt = dt
+
+    def __call__(self, measurement: np.ndarray, step: int) -> np.ndarray:
+        time = step * self.dt
+        waves = np.sin(2 * np.pi * self.frequencies * time + self.phases)
+        return (self.amplitudes * waves).sum(-1)
+
+
+class FilteredNoiseExploration:
+    """Gaussian white noise through a Butterworth low-pass at ``cutoff_hz`` (thesis §4.2),
+    scaled so that the filtered signal's stationary std is ``std``; clipped to ±u_max.
+
+    Args:
+        u_max: action bound. action_dim: d_u. rng: random source (the system's).
+        dt: sampling time in s. cutoff_hz: low-pass cut-off. std: output std (default
+        u_max / 2). order: filter order.
+    """
+
+    def __init__(
+        self,
+        u_max: float,
+        action_dim: int,
+        rng: np.random.Generator,
+        dt: float,
+        cutoff_hz: float = 1.5,
+        std: float | None = None,
+        order: int = 2,
+    ) -> None:
+        if not 0 < cutoff_hz < 0.5 / dt:
+            raise ConfigError(
+                f"exploration.cutoff_hz={cutoff_hz} must be in (0, {0.5 / dt:g}) Hz (Nyquist)"
+            )
+        self.b, self.a = signal.butter(order, cutoff_hz, fs=1.0 / dt)
+        impulse = signal.lfilter(self.b, self.a, np.r_[1.0, np.zeros(int(20 / (cutoff_hz * dt)))])
+        self.input_std = (u_max / 2 if std is None else std) / np.sqrt(np.sum(impulse**2))
+        self.state = np.zeros((action_dim, max(len(self.a), len(self.b)) - 1))
+        self.u_max, self.action_dim, self.rng = u_max, action_dim, rng
+
+    def __call__(self, measurement: np.ndarray, step: int) -> np.ndarray:
+        noise = self.input_std * self.rng.standard_normal((self.action_dim, 1))
+        output, self.state = signal.lfilter(self.b, self.a, noise, axis=-1, zi=self.state)
+        return np.clip(output[:, 0], -self.u_max, self.u_max)
