@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -112,3 +113,27 @@ class RunDirectory:
 
     def summary(self) -> pd.DataFrame:
         return pd.read_csv(self.path / "summary.csv")
+
+    FAILURE_FILE = "failed.txt"
+
+    def record_failure(self, text: str) -> None:
+        """Mark the run as failed (a sweep's analysis lists it) with the error's text."""
+        self.write_text(self.FAILURE_FILE, text)
+
+    def clear_failure(self) -> None:
+        (self.path / self.FAILURE_FILE).unlink(missing_ok=True)
+
+    @property
+    def failed(self) -> bool:
+        return (self.path / self.FAILURE_FILE).is_file()
+
+    def clear(self) -> None:
+        """Delete everything a run wrote here (results, logs of trials, checkpoints), keeping
+        Hydra's ``.hydra/`` and ``*.log`` files of the current start."""
+        for entry in self.path.iterdir():
+            if entry.name == ".hydra" or entry.suffix == ".log":
+                continue
+            if entry.is_dir():
+                shutil.rmtree(entry)
+            else:
+                entry.unlink()

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import logging
 import sys
+import traceback
 from pathlib import Path
 
 import hydra
 from hydra.core.hydra_config import HydraConfig
+from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
@@ -25,7 +27,7 @@ CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.train")
 
 
-MACHINE_KEYS = ("num_trials", "threads", "device", "resume")
+MACHINE_KEYS = ("num_trials", "threads", "device", "resume", "overwrite")
 
 
 def check_same_run(cfg: DictConfig, run_dir: Path) -> None:
@@ -55,15 +57,13 @@ def resolve_resume(cfg: DictConfig) -> tuple[DictConfig, Path]:
     ``threads``/``device`` (the machine) are taken from the command line.
     """
     if cfg.get("resume") is None:
-        run_dir = Path(HydraConfig.get().runtime.output_dir)
-        check_same_run(cfg, run_dir)
-        return cfg, run_dir
+        return cfg, Path(HydraConfig.get().runtime.output_dir)
     run_dir = Path(cfg.resume).expanduser().resolve()
     if not (run_dir / "config.yaml").is_file():
         raise ConfigError(f"resume={cfg.resume!r} holds no config.yaml")
     saved = OmegaConf.load(run_dir / "config.yaml")
     assert isinstance(saved, DictConfig)
-    for key in MACHINE_KEYS[:-1]:
+    for key in ("num_trials", "threads", "device"):
         saved[key] = cfg[key]
     saved.resume = str(run_dir)
     return saved, run_dir
@@ -87,17 +87,18 @@ def build_observers(
     return observers
 
 
-@hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="train")
-def main(cfg: DictConfig) -> None:
-    keep_freed_memory()
-    try:
-        cfg, run_dir = resolve_resume(cfg)
-        experiment = build(cfg)
-        observers = build_observers(cfg, run_dir, experiment.components.system)
-    except ConfigError as error:
-        log.error("configuration error: %s", error)
-        sys.exit(2)
+def train(cfg: DictConfig) -> None:
+    """One run: build (all validation first), then the trial loop with a progress bar."""
+    cfg, run_dir = resolve_resume(cfg)
     storage = RunDirectory(run_dir)
+    if cfg.get("overwrite") and cfg.get("resume") is None:
+        storage.clear()
+        log.info("overwrite=true: cleared %s", run_dir)
+    else:
+        check_same_run(cfg, run_dir)
+    experiment = build(cfg)
+    observers = build_observers(cfg, run_dir, experiment.components.system)
+    storage.clear_failure()
     config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
     storage.write_text("config.yaml", config_yaml)
     log.info("run directory: %s", storage.path)
@@ -126,6 +127,27 @@ def main(cfg: DictConfig) -> None:
         for bar in bars.values():
             bar.close()
     log.info("summary:\n%s", storage.summary().to_string(index=False))
+
+
+@hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="train")
+def main(cfg: DictConfig) -> None:
+    """Hydra entry point. A failed run leaves ``failed.txt`` in its directory; in a sweep
+    the error is re-raised so Hydra records the job as failed and runs the others."""
+    keep_freed_memory()
+    hydra_config = HydraConfig.get()
+    try:
+        train(cfg)
+    except Exception as error:
+        run_dir = Path(cfg.resume) if cfg.get("resume") else Path(hydra_config.runtime.output_dir)
+        if run_dir.is_dir():
+            RunDirectory(run_dir).record_failure(
+                "".join(traceback.format_exception(type(error), error, error.__traceback__))
+            )
+        if isinstance(error, ConfigError):
+            log.error("configuration error: %s", error)
+            if hydra_config.mode != RunMode.MULTIRUN:
+                sys.exit(2)
+        raise
 
 
 if __name__ == "__main__":

@@ -6,16 +6,22 @@ from typing import Any
 
 import numpy as np
 import torch
-from scipy import signal
 
 from mcpilco.errors import ConfigError
 from mcpilco.estimators.positions import PositionBasedEstimator
 from mcpilco.systems.base import MechanicalSystem
 
 
+def _signal():  # type: ignore[no-untyped-def]
+    """scipy.signal, imported on first use (it adds seconds to every process start)."""
+    from scipy import signal
+
+    return signal
+
+
 def _butterworth(order: int, cutoff_hz: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Digital low-pass Butterworth ``(b, a)`` with a[0] = 1 (scipy's design)."""
-    b, a = signal.butter(order, cutoff_hz, btype="low", fs=1.0 / dt)
+    b, a = _signal().butter(order, cutoff_hz, btype="low", fs=1.0 / dt)
     return np.asarray(b, dtype=np.float64), np.asarray(a, dtype=np.float64)
 
 
@@ -50,7 +56,7 @@ class CausalDifference(PositionBasedEstimator):
     def causal_velocities(self, positions: np.ndarray) -> np.ndarray:
         """Low-passed backward differences ``[T+1, d_q]`` of positions ``[T+1, d_q]``."""
         raw = np.diff(positions, axis=0, prepend=positions[:1]) / self.dt
-        return signal.lfilter(self.b, self.a, raw, axis=0)
+        return _signal().lfilter(self.b, self.a, raw, axis=0)
 
     def offline(self, measurements: np.ndarray, dt: float) -> np.ndarray:
         positions = self.positions_of(measurements)
@@ -115,5 +121,7 @@ class ZeroPhaseDifference(CausalDifference):
     def offline(self, measurements: np.ndarray, dt: float) -> np.ndarray:
         positions = self.positions_of(measurements)
         padding = min(3 * max(len(self.offline_a), len(self.offline_b)), len(positions) - 1)
-        smooth = signal.filtfilt(self.offline_b, self.offline_a, positions, axis=0, padlen=padding)
+        smooth = _signal().filtfilt(
+            self.offline_b, self.offline_a, positions, axis=0, padlen=padding
+        )
         return self.assemble(smooth, np.gradient(smooth, self.dt, axis=0))

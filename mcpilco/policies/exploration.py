@@ -3,9 +3,15 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
 from mcpilco.errors import ConfigError
+
+
+def _signal():  # type: ignore[no-untyped-def]
+    """scipy.signal, imported on first use (it adds seconds to every process start)."""
+    from scipy import signal
+
+    return signal
 
 
 class UniformRandomExploration:
@@ -92,13 +98,15 @@ class FilteredNoiseExploration:
             raise ConfigError(
                 f"exploration.cutoff_hz={cutoff_hz} must be in (0, {0.5 / dt:g}) Hz (Nyquist)"
             )
-        self.b, self.a = signal.butter(order, cutoff_hz, fs=1.0 / dt)
-        impulse = signal.lfilter(self.b, self.a, np.r_[1.0, np.zeros(int(20 / (cutoff_hz * dt)))])
+        self.b, self.a = _signal().butter(order, cutoff_hz, fs=1.0 / dt)
+        impulse = _signal().lfilter(
+            self.b, self.a, np.r_[1.0, np.zeros(int(20 / (cutoff_hz * dt)))]
+        )
         self.input_std = (u_max / 2 if std is None else std) / np.sqrt(np.sum(impulse**2))
         self.state = np.zeros((action_dim, max(len(self.a), len(self.b)) - 1))
         self.u_max, self.action_dim, self.rng = u_max, action_dim, rng
 
     def __call__(self, measurement: np.ndarray, step: int) -> np.ndarray:
         noise = self.input_std * self.rng.standard_normal((self.action_dim, 1))
-        output, self.state = signal.lfilter(self.b, self.a, noise, axis=-1, zi=self.state)
+        output, self.state = _signal().lfilter(self.b, self.a, noise, axis=-1, zi=self.state)
         return np.clip(output[:, 0], -self.u_max, self.u_max)

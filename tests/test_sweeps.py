@@ -1,0 +1,95 @@
+"""Seed × kernel sweeps through Hydra launchers: parallel local jobs, submitit, resume."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+TINY_SWEEP = [
+    "--multirun",
+    "num_trials=1",
+    "threads=1",
+    "optimizer.num_particles=8",
+    "optimizer.max_steps=3",
+    "optimizer.max_steps_first_trial=3",
+    "policy.num_basis=10",
+    "system.trial_duration=0.5",
+    "seed=0,1",
+    "kernel=se,sp",
+]
+
+
+def sweep(*overrides: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "runners.train", *overrides],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+
+
+def job_summaries(sweep_dir: Path) -> dict[str, pd.DataFrame]:
+    return {p.parent.name: pd.read_csv(p) for p in sorted(sweep_dir.glob("*/summary.csv"))}
+
+
+def test_local_parallel_sweep_runs_every_job_and_skips_them_when_rerun(tmp_path: Path) -> None:
+    command = [*TINY_SWEEP, "hydra/launcher=local_parallel", f"hydra.sweep.dir={tmp_path}"]
+    first = sweep(*command)
+    assert first.returncode == 0, first.stderr[-3000:]
+    summaries = job_summaries(tmp_path)
+    assert sorted(summaries) == [
+        f"kernel={k},optimizer.max_steps=3,optimizer.max_steps_first_trial=3,"
+        f"optimizer.num_particles=8,policy.num_basis=10,seed={s},system.trial_duration=0.5"
+        for k in ("se", "sp")
+        for s in (0, 1)
+    ]
+    assert all(table["trial"].tolist() == [0, 1] for table in summaries.values())
+    stamps = {name: (tmp_path / name / "summary.csv").stat().st_mtime_ns for name in summaries}
+
+    again = sweep(*command)
+    assert again.returncode == 0, again.stderr[-3000:]
+    for name, table in job_summaries(tmp_path).items():  # nothing recomputed
+        pd.testing.assert_frame_equal(table, summaries[name])
+        assert (tmp_path / name / "summary.csv").stat().st_mtime_ns == stamps[name]
+
+    fresh = sweep(*command[:-1], "seed=0", "kernel=se", "overwrite=true", command[-1])
+    assert fresh.returncode == 0, fresh.stderr[-3000:]
+    redone = [
+        n for n in summaries if (tmp_path / n / "summary.csv").stat().st_mtime_ns != stamps[n]
+    ]
+    assert len(redone) == 1 and "kernel=se" in redone[0] and "seed=0" in redone[0]
+
+
+def test_failed_job_is_recorded_and_the_sweep_goes_on(tmp_path: Path) -> None:
+    result = sweep(
+        *TINY_SWEEP[:-2],
+        "seed=0",
+        "system.dt=-0.05,0.05",
+        f"hydra.sweep.dir={tmp_path}",
+    )
+    assert result.returncode != 0  # the sweep reports the failure at its end
+    failed = sorted(p.parent.name for p in tmp_path.glob("*/failed.txt"))
+    finished = sorted(p.parent.name for p in tmp_path.glob("*/summary.csv"))
+    assert len(failed) == 1 and "system.dt=-0.05" in failed[0]
+    assert "system.dt must be positive" in (tmp_path / failed[0] / "failed.txt").read_text()
+    assert len(finished) == 1 and "system.dt=0.05" in finished[0]
+
+
+def test_submitit_local_sweep(tmp_path: Path) -> None:
+    pytest.importorskip("hydra_plugins.hydra_submitit_launcher")
+    result = sweep(
+        *TINY_SWEEP,
+        "hydra/launcher=submitit_local",
+        "hydra.launcher.timeout_min=5",
+        f"hydra.sweep.dir={tmp_path}",
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    summaries = job_summaries(tmp_path)
+    assert len(summaries) == 4
+    assert all(table["trial"].tolist() == [0, 1] for table in summaries.values())
