@@ -14,20 +14,7 @@ from pathlib import Path
 import pandas as pd
 from omegaconf import OmegaConf
 
-KERNEL_NAMES = {
-    "SquaredExponential": "SE",
-    "MultiplicativePolynomial": "P",
-    "PhysicalBasis": "PI",
-}
-
-
-def kernel_label(kernel: dict) -> str:  # type: ignore[type-arg]
-    """A short name for a kernel config: SE, SE+P(2), PI+SE, ..."""
-    target = str(kernel["_target_"]).rsplit(".", 1)[-1]
-    if target == "Sum":
-        return "+".join(kernel_label(term) for term in kernel["terms"])
-    name = KERNEL_NAMES.get(target, target)
-    return f"P({kernel['degree']})" if name == "P" else name
+from analysis.thesis import kernel_label
 
 
 def load_run(path: Path) -> dict[str, object]:

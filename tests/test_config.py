@@ -18,7 +18,9 @@ from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
 
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "conf"
-GROUPS = sorted(p.name for p in CONFIG_DIR.iterdir() if p.is_dir() and p.name != "experiment")
+GROUPS = sorted(
+    p.name for p in CONFIG_DIR.iterdir() if p.is_dir() and p.name not in ("experiment", "hydra")
+)
 EXPERIMENTS = sorted(p.stem for p in (CONFIG_DIR / "experiment").glob("*.yaml"))
 
 
@@ -33,6 +35,7 @@ def make_config(*overrides: str) -> DictConfig:
 
 def test_every_group_is_known() -> None:
     assert {"system", "kernel", "model", "policy", "cost", "optimizer", "estimator"} <= set(GROUPS)
+    assert all(options(group) for group in GROUPS)  # no empty group silently empties the product
 
 
 INDEPENDENT = ("exploration", "optimizer")
@@ -83,8 +86,27 @@ def test_every_independent_option_builds_with_every_system(choice: tuple[str, st
 def test_experiment_presets_build(experiment: str, extra: list[str]) -> None:
     cfg = make_config(f"+experiment={experiment}", *extra)
     c = build(cfg).components
-    assert c.system.sensors.measured == (0, 2) and c.system.num_steps == 90
+    if experiment in ("cartpole_pms", "cartpole_df"):  # positions only, 30 Hz
+        assert c.system.sensors.measured == (0, 2) and c.system.num_steps == 90
     assert c.simulate_estimator == ("simulate_estimator=false" not in extra)
+
+
+@pytest.mark.parametrize(
+    "experiment,axis,values",
+    [
+        ("ablation_kernel", "kernel", "se,se_p2,sp"),
+        ("ablation_dropout", "optimizer", "mcpilco,mcpilco_no_dropout"),
+        ("ablation_cost", "cost", "cartpole_swingup,cartpole_swingup_selective"),
+        ("ablation_model", "model", "speed_integration,full_state"),
+    ],
+)
+def test_ablation_presets_name_their_sweep_axes(experiment: str, axis: str, values: str) -> None:
+    with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
+        cfg = compose("train", overrides=[f"+experiment={experiment}"], return_hydra_config=True)
+    params = cfg.hydra.sweeper.params
+    assert params[axis] == values and params.seed == "range(0,50)"
+    for option in values.split(","):  # every job of the sweep builds
+        build(make_config(f"+experiment={experiment}", f"{axis}={option}"))
 
 
 def test_unknown_option_lists_the_choices() -> None:

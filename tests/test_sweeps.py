@@ -58,6 +58,8 @@ def test_local_parallel_sweep_runs_every_job_and_skips_them_when_rerun(tmp_path:
         pd.testing.assert_frame_equal(table, summaries[name])
         assert (tmp_path / name / "summary.csv").stat().st_mtime_ns == stamps[name]
 
+    check_report(tmp_path, summaries)
+
     fresh = sweep(*command[:-1], "seed=0", "kernel=se", "overwrite=true", command[-1])
     assert fresh.returncode == 0, fresh.stderr[-3000:]
     redone = [
@@ -93,3 +95,56 @@ def test_submitit_local_sweep(tmp_path: Path) -> None:
     summaries = job_summaries(tmp_path)
     assert len(summaries) == 4
     assert all(table["trial"].tolist() == [0, 1] for table in summaries.values())
+
+
+def check_report(sweep_dir: Path, summaries: dict[str, pd.DataFrame]) -> None:
+    """analysis.report on the sweep: its success counts equal the per-run summaries."""
+    from analysis.report import write_report
+
+    write_report([sweep_dir], sweep_dir / "report", "test")
+    rates = pd.read_csv(sweep_dir / "report" / "success_rates.csv")
+    assert set(rates["configuration"]) == {
+        "S.I., SE, dropout, l=(3,1)",
+        "S.I., PI+SE, dropout, l=(3,1)",
+    }
+    for row in rates.itertuples():
+        kernel = "kernel=sp" if "PI+SE" in row.configuration else "kernel=se"
+        runs = [t for name, t in summaries.items() if name.startswith(kernel)]
+        expected = sum(bool(t.loc[t["trial"] == row.trial, "success"].iloc[0]) for t in runs)
+        assert (row.runs, row.successes) == (len(runs), expected)
+    for name in ("index.md", "success_rates.md", "precision.md", "cumulative_cost.png"):
+        assert (sweep_dir / "report" / name).stat().st_size > 0
+
+
+def test_wilson_interval_matches_the_textbook_value() -> None:
+    from analysis.report import wilson_interval
+
+    low, high = wilson_interval(8, 10)  # p = 0.8, n = 10, 95 %: [0.490, 0.943]
+    assert (round(low, 3), round(high, 3)) == (0.49, 0.943)
+    assert wilson_interval(0, 4)[0] == 0.0
+    assert wilson_interval(4, 4)[1] == pytest.approx(1.0)
+
+
+def test_configuration_labels_name_the_thesis_rows() -> None:
+    from hydra import compose, initialize_config_dir
+    from omegaconf import OmegaConf
+
+    from analysis.thesis import SUCCESS_RATES, configuration_label
+
+    cases = {
+        (): "S.I., SE, dropout, l=(3,1)",
+        ("kernel=sp",): "S.I., PI+SE, dropout, l=(3,1)",
+        ("kernel=se_p2", "model=full_state"): "F.S., SE+P(2), dropout, l=(3,1)",
+        (
+            "optimizer=mcpilco_no_dropout",
+            "cost=cartpole_swingup_selective",
+        ): "S.I., SE, no dropout, l=(0.75,0.25)",
+        ("+experiment=cartpole_df",): "DF m_q=2 m_u=1, SE, dropout, l=(3,1)",
+        ("+experiment=cartpole_pms",): "PMS S.I., SE, dropout, l=(3,1)",
+    }
+    for overrides, label in cases.items():
+        with initialize_config_dir(version_base="1.3", config_dir=str(ROOT / "conf")):
+            cfg = compose("train", overrides=list(overrides))
+        config = OmegaConf.to_container(cfg, resolve=True)
+        assert configuration_label(config) == label  # type: ignore[arg-type]
+    assert "S.I., SE, dropout, l=(3,1)" in SUCCESS_RATES

@@ -1,0 +1,231 @@
+"""Regenerate the thesis's tables and plots from the runs of a sweep.
+
+``python -m analysis.report SWEEP_DIR... [--out DIR]`` writes to ``DIR`` (default
+``SWEEP_DIR/report``):
+
+* ``success_rates.md`` / ``.csv``: per configuration and trial, the runs whose policy
+  succeeded, the rate with its Wilson 95 % interval, and the thesis's rate beside it;
+* ``cumulative_cost.png`` / ``.svg``: per configuration, the median and 5–95 percentile band
+  of the cumulative evaluation cost (2.17) over the seeds, per trial;
+* ``precision.md`` / ``.csv``: Table 2.2 — mean ± std distance from the target over the
+  last second of the successful runs at the last trial;
+* ``index.md``: what is where, the runs that failed, and the command.
+
+A configuration is everything in the resolved config but the seed (named thesis-style, see
+:func:`analysis.thesis.configuration_label`); a run directory is any folder holding a
+``config.yaml``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import pandas as pd  # noqa: E402
+from omegaconf import OmegaConf  # noqa: E402
+
+from analysis.thesis import PRECISION, SUCCESS_RATES, configuration_label  # noqa: E402
+
+
+def wilson_interval(successes: int, total: int, z: float = 1.959964) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion (95 % by default)."""
+    if total == 0:
+        return (math.nan, math.nan)
+    p = successes / total
+    denominator = 1 + z * z / total
+    centre = (p + z * z / (2 * total)) / denominator
+    half = z * math.sqrt(p * (1 - p) / total + z * z / (4 * total * total)) / denominator
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def load_sweep(paths: Iterable[Path]) -> tuple[pd.DataFrame, list[Path]]:
+    """One row per (run, trial) of every finished trial under ``paths``, with the run's
+    configuration label, seed and directory; plus the run directories that failed."""
+    rows, failed = [], []
+    runs = sorted({p.parent for path in paths for p in Path(path).rglob("config.yaml")})
+    for run in runs:
+        if (run / "failed.txt").is_file():
+            failed.append(run)
+        if not (run / "summary.csv").is_file():
+            continue
+        config = OmegaConf.to_container(OmegaConf.load(run / "config.yaml"), resolve=True)
+        assert isinstance(config, dict)
+        summary = pd.read_csv(run / "summary.csv")
+        summary["configuration"] = configuration_label(config)
+        summary["seed"] = config["seed"]
+        summary["run"] = str(run)
+        rows.append(summary)
+    table = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
+    if not table.empty:
+        table["success"] = table["success"].astype(bool)
+    return table, failed
+
+
+def success_rates(trials: pd.DataFrame) -> pd.DataFrame:
+    """Per configuration and learned trial: runs, successes, rate, Wilson interval, thesis."""
+    records = []
+    learned = trials[trials["trial"] >= 1]
+    for (configuration, trial), group in learned.groupby(["configuration", "trial"]):
+        successes, total = int(group["success"].sum()), len(group)
+        low, high = wilson_interval(successes, total)
+        published = SUCCESS_RATES.get(str(configuration))
+        thesis = published[int(trial) - 1] if published and trial <= len(published) else None
+        records.append(
+            {
+                "configuration": configuration,
+                "trial": int(trial),
+                "runs": total,
+                "successes": successes,
+                "rate": successes / total,
+                "wilson_low": low,
+                "wilson_high": high,
+                "thesis_rate": None if thesis is None else thesis / 100,
+            }
+        )
+    return pd.DataFrame(records)
+
+
+def success_markdown(rates: pd.DataFrame) -> str:
+    lines = [
+        "| configuration | trial | successes | rate [Wilson 95 %] | thesis (50 seeds) |",
+        "|---|---|---|---|---|",
+    ]
+    for row in rates.itertuples():
+        thesis = "—" if pd.isna(row.thesis_rate) else f"{100 * row.thesis_rate:.0f} %"
+        lines.append(
+            f"| {row.configuration} | {row.trial} | {row.successes}/{row.runs} | "
+            f"{100 * row.rate:.0f} % [{100 * row.wilson_low:.0f}–{100 * row.wilson_high:.0f}] "
+            f"| {thesis} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def precision(trials: pd.DataFrame) -> pd.DataFrame:
+    """Table 2.2 from the successful runs at each configuration's last trial."""
+    records = []
+    for configuration, group in trials.groupby("configuration"):
+        last = group[group["trial"] == group["trial"].max()]
+        good = last[last["success"]]
+        published = PRECISION.get(str(configuration))
+        records.append(
+            {
+                "configuration": configuration,
+                "trial": int(last["trial"].max()),
+                "successful_runs": len(good),
+                "position_mean": good["final_position_error"].mean(),
+                "position_std": good["final_position_error"].std(ddof=0),
+                "angle_mean": good["final_angle_error"].mean(),
+                "angle_std": good["final_angle_error"].std(ddof=0),
+                "thesis": "—"
+                if published is None
+                else "{:.3f}±{:.3f} m / {:.3f}±{:.3f} rad".format(*published),
+            }
+        )
+    return pd.DataFrame(records)
+
+
+def precision_markdown(table: pd.DataFrame) -> str:
+    lines = [
+        "| configuration | trial | successful runs | position [m] | angle [rad] | thesis |",
+        "|---|---|---|---|---|---|",
+    ]
+    for row in table.itertuples():
+        lines.append(
+            f"| {row.configuration} | {row.trial} | {row.successful_runs} | "
+            f"{row.position_mean:.3f}±{row.position_std:.3f} | "
+            f"{row.angle_mean:.3f}±{row.angle_std:.3f} | {row.thesis} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def cumulative_cost_figure(trials: pd.DataFrame, out: Path) -> list[Path]:
+    """Median and 5–95 percentile band of the cumulative cost per trial, per configuration."""
+    configurations = sorted(trials["configuration"].unique())
+    figure, axes = plt.subplots(
+        1, len(configurations), figsize=(4.5 * len(configurations), 3.6), squeeze=False
+    )
+    for axis, configuration in zip(axes[0], configurations, strict=True):
+        group = trials[trials["configuration"] == configuration]
+        by_trial = group.groupby("trial")["eval_cost"]
+        stats = pd.DataFrame(
+            {
+                "median": by_trial.median(),
+                "low": by_trial.quantile(0.05),
+                "high": by_trial.quantile(0.95),
+                "rate": group.groupby("trial")["success"].mean(),
+                "runs": by_trial.size(),
+            }
+        )
+        axis.fill_between(stats.index, stats["low"], stats["high"], alpha=0.3, label="5–95 %")
+        axis.plot(stats.index, stats["median"], "o-", label="median")
+        for trial, row in stats.iterrows():
+            if trial >= 1:
+                axis.annotate(
+                    f"{100 * row['rate']:.0f}%", (trial, row["high"]), ha="center", va="bottom"
+                )
+        axis.set_title(f"{configuration}\n({int(stats['runs'].max())} seeds)", fontsize=8)
+        axis.set_xlabel("trial")
+        axis.set_ylabel("cumulative cost (2.17)")
+        axis.set_xticks(list(stats.index))
+        axis.legend(fontsize=7)
+    figure.tight_layout()
+    paths = [out / "cumulative_cost.png", out / "cumulative_cost.svg"]
+    for path in paths:
+        figure.savefig(path, dpi=120)
+    plt.close(figure)
+    return paths
+
+
+def write_report(paths: Sequence[Path], out: Path, command: str) -> dict[str, Path]:
+    """Write every table and figure for the runs under ``paths`` into ``out``."""
+    trials, failed = load_sweep(paths)
+    if trials.empty:
+        raise SystemExit(f"no finished trials under {', '.join(map(str, paths))}")
+    out.mkdir(parents=True, exist_ok=True)
+    rates = success_rates(trials)
+    rates.to_csv(out / "success_rates.csv", index=False)
+    (out / "success_rates.md").write_text(success_markdown(rates))
+    table = precision(trials)
+    table.to_csv(out / "precision.csv", index=False)
+    (out / "precision.md").write_text(precision_markdown(table))
+    figures = cumulative_cost_figure(trials, out)
+    runs = trials.groupby("configuration")["run"].nunique()
+    index = [
+        "# Sweep report",
+        "",
+        f"Generated by `{command}` from {trials['run'].nunique()} runs.",
+        "",
+        "| configuration | runs |",
+        "|---|---|",
+        *[f"| {name} | {count} |" for name, count in runs.items()],
+        "",
+        "- [success rates per trial](success_rates.md) ([csv](success_rates.csv))",
+        "- [precision at the target, Table 2.2](precision.md) ([csv](precision.csv))",
+        *[f"- ![cumulative cost]({p.name})" for p in figures if p.suffix == ".png"],
+        "",
+        "Failed runs: " + (", ".join(f"`{p}`" for p in failed) if failed else "none"),
+        "",
+    ]
+    (out / "index.md").write_text("\n".join(index))
+    return {"index": out / "index.md", "success": out / "success_rates.csv"}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("paths", nargs="+", type=Path, help="sweep or run directories")
+    parser.add_argument("--out", type=Path, default=None, help="default: FIRST_PATH/report")
+    args = parser.parse_args()
+    out = args.out or args.paths[0] / "report"
+    command = "python -m analysis.report " + " ".join(map(str, args.paths))
+    written = write_report(args.paths, out, command)
+    print(f"wrote {written['index']}")  # noqa: T201
+
+
+if __name__ == "__main__":
+    main()

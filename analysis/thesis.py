@@ -1,0 +1,76 @@
+"""The thesis's published cart-pole numbers (REFERENCE.md §5), matched to our configs."""
+
+from __future__ import annotations
+
+from typing import Any
+
+SUCCESS_RATES: dict[str, list[float]] = {
+    # configuration label -> success rate (%) at trials 1..5, 50 seeds (Figs. 2.4-2.8, Table 4.1)
+    "S.I., SE, no dropout, l=(0.75,0.25)": [0, 4, 42, 68, 70],
+    "S.I., SE, no dropout, l=(3,1)": [0, 6, 54, 72, 82],
+    "S.I., SE, dropout, l=(3,1)": [0, 14, 76, 98, 100],
+    "S.I., SE+P(2), dropout, l=(3,1)": [0, 36, 88, 98, 100],
+    "S.I., PI+SE, dropout, l=(3,1)": [8, 70, 100, 100, 100],
+    "F.S., SE, dropout, l=(3,1)": [0, 12, 70, 98, 100],
+    "DF m_q=1 m_u=0, SE, dropout, l=(3,1)": [0, 14, 34, 46, 56],
+    "DF m_q=2 m_u=0, SE, dropout, l=(3,1)": [0, 10, 18, 28, 52],
+    "DF m_q=1 m_u=1, SE, dropout, l=(3,1)": [0, 8, 52, 86, 96],
+    "DF m_q=2 m_u=1, SE, dropout, l=(3,1)": [0, 20, 73, 93, 100],
+    "PMS S.I., SE, dropout, l=(3,1)": [0, 14, 82, 98, 96],
+}
+
+PRECISION: dict[str, tuple[float, float, float, float]] = {
+    # Table 2.2: distance from the target over the last second, successful runs at trial 5:
+    # (position mean, position std [m], angle mean, angle std [rad])
+    "S.I., SE+P(2), dropout, l=(3,1)": (0.008, 0.003, 0.011, 0.004),
+    "S.I., PI+SE, dropout, l=(3,1)": (0.008, 0.003, 0.011, 0.005),
+    "S.I., SE, dropout, l=(3,1)": (0.010, 0.005, 0.011, 0.005),
+    "S.I., SE, no dropout, l=(0.75,0.25)": (0.016, 0.009, 0.012, 0.008),
+    "S.I., SE, no dropout, l=(3,1)": (0.019, 0.014, 0.015, 0.009),
+    "F.S., SE, dropout, l=(3,1)": (0.011, 0.005, 0.011, 0.005),
+}
+
+MODEL_NAMES = {"SpeedIntegration": "S.I.", "FullState": "F.S.", "DerivativeFree": "DF"}
+KERNEL_NAMES = {
+    "SquaredExponential": "SE",
+    "MultiplicativePolynomial": "P",
+    "PhysicalBasis": "PI",
+}
+
+
+def kernel_label(kernel: dict[str, Any]) -> str:
+    """A short name for a kernel config: SE, SE+P(2), PI+SE, ..."""
+    target = str(kernel["_target_"]).rsplit(".", 1)[-1]
+    if target == "Sum":
+        return "+".join(kernel_label(term) for term in kernel["terms"])
+    if target == "Product":
+        return "·".join(kernel_label(term) for term in kernel["terms"])
+    name = KERNEL_NAMES.get(target, target)
+    return f"P({kernel['degree']})" if name == "P" else name
+
+
+def _number(value: float) -> str:
+    return f"{value:g}"
+
+
+def configuration_label(config: dict[str, Any]) -> str:
+    """Thesis-style name of a run's configuration (everything but the seed that matters
+    for the published tables): model structure, kernel, dropout, cost length-scales."""
+    model = config["model"]
+    target = str(model["_target_"]).rsplit(".", 1)[-1]
+    name = MODEL_NAMES.get(target, target)
+    if name == "DF":
+        name = f"DF m_q={model.get('m_q')} m_u={model.get('m_u')}"
+        if model.get("inputs", "differences") != "differences":
+            name += f" {model['inputs']}"
+    estimator = str(config.get("estimator", {}).get("_target_", "")).rsplit(".", 1)[-1]
+    if estimator not in ("", "FullStateMeasurement"):
+        name = f"PMS {name}"
+        if not config.get("simulate_estimator", True):
+            name += " (estimator not simulated)"
+    dropout = config["optimizer"]["schedule"]["dropout"] > 0
+    scales = [term.get("length_scale") for term in config["cost"].get("terms", [])]
+    cost = "l=(" + ",".join(_number(s) for s in scales if s is not None) + ")"
+    return ", ".join(
+        [name, kernel_label(config["kernel"]), "dropout" if dropout else "no dropout", cost]
+    )
