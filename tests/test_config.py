@@ -38,8 +38,8 @@ def test_every_group_is_known() -> None:
     assert all(options(group) for group in GROUPS)  # no empty group silently empties the product
 
 
-INDEPENDENT = ("exploration", "optimizer")
-"""Groups whose options read nothing but the system (u_max, dt): each of their options is
+INDEPENDENT = ("cost", "exploration", "optimizer")
+"""Groups whose options read nothing but the system (state size, u_max, dt): each option is
 built with every system; all other groups are crossed in full."""
 COUPLED = [g for g in GROUPS if g not in INDEPENDENT]
 

@@ -2,6 +2,7 @@
 
 from mcpilco.systems.base import Controller, MechanicalSystem, OdeSystem
 from mcpilco.systems.cartpole import CartPole
+from mcpilco.systems.furuta import FurutaPendulum
 from mcpilco.systems.sensors import Sensors
 
-__all__ = ["CartPole", "Controller", "MechanicalSystem", "OdeSystem", "Sensors"]
+__all__ = ["CartPole", "Controller", "FurutaPendulum", "MechanicalSystem", "OdeSystem", "Sensors"]

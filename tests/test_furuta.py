@@ -1,0 +1,94 @@
+"""Furuta pendulum: physics checks, the thesis's cost (eq. 3.2) and the config."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from hydra import compose, initialize_config_dir
+from scipy.integrate import solve_ivp
+
+from mcpilco.build import build
+from mcpilco.systems import FurutaPendulum
+from mcpilco.systems.furuta import furuta_cost
+from tests.test_config import CONFIG_DIR
+
+
+def frictionless(**kwargs: float) -> FurutaPendulum:
+    """No damping and no back-emf: zero volts means zero torque."""
+    return FurutaPendulum(arm_damping=0.0, pendulum_damping=0.0, back_emf_constant=0.0, **kwargs)
+
+
+def test_energy_is_conserved_without_friction_and_input() -> None:
+    system = frictionless()
+    state = np.array([0.3, 4.0, 2.0, -6.0])
+    energy = system.energy(state)
+    for _ in range(60):
+        state = system.step(state, np.zeros(1))
+        assert system.energy(state) == pytest.approx(energy, abs=1e-9)
+
+
+def test_damping_dissipates_and_voltage_does_work() -> None:
+    system = FurutaPendulum()
+    state = np.array([0.0, 5.0, 1.0, 3.0])
+    assert system.energy(system.step(state, np.zeros(1))) < system.energy(state)
+    rest = np.zeros(4)
+    assert system.energy(system.step(rest, np.array([5.0]))) > system.energy(rest)
+
+
+def test_pendulum_on_a_locked_arm_swings_as_a_compound_pendulum() -> None:
+    """With an immovable arm, small oscillations have ω² = m g (L/2) / (m L²/3) = 3g/(2L)."""
+    system = frictionless(rotor_inertia=1e6)
+    solution = solve_ivp(
+        lambda _t, x: system.derivatives(x, np.zeros(1)),
+        (0.0, 3.0),
+        np.array([0.0, 0.0, 0.02, 0.0]),
+        method="DOP853",
+        rtol=1e-10,
+        atol=1e-12,
+        dense_output=True,
+    )
+    times = np.linspace(0.0, 3.0, 30001)
+    angle = solution.sol(times)[2]
+    crossings = times[1:][np.diff(np.sign(angle)) != 0]
+    period = 2 * np.mean(np.diff(crossings))
+    expected = 2 * np.pi * np.sqrt(2 * system.pendulum_length / (3 * system.gravity))
+    assert period == pytest.approx(expected, rel=1e-3)
+
+
+def test_cost_at_known_states() -> None:
+    upright = np.array([0.0, 0.0, np.pi, 0.0])
+    assert furuta_cost(upright) == pytest.approx(0.0, abs=1e-9)
+    at_barrier = np.array([0.75 * np.pi, 0.0, -np.pi, 0.0])
+    expected = 1 - np.exp(-((0.75 * np.pi / 2) ** 2)) + 0.5  # the upper σ is at its midpoint
+    assert furuta_cost(at_barrier) == pytest.approx(expected, abs=1e-9)
+    hanging = np.zeros(4)
+    assert furuta_cost(hanging) == pytest.approx(1 - np.exp(-((np.pi / 2) ** 2)), abs=1e-9)
+
+
+def test_config_cost_equals_eq_3_2_and_sp_model_builds() -> None:
+    with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
+        cfg = compose(
+            "train",
+            overrides=[
+                "system=furuta",
+                "cost=furuta_swingup",
+                "kernel=sp",
+                "estimator=difference",
+                "system.measured_indices=[0,2]",
+                "system.quantization=0.0015339807878856412",
+            ],
+        )
+    c = build(cfg).components
+    states = np.random.default_rng(0).uniform(-4, 4, size=(500, 4))
+    torch_cost = c.cost(torch.as_tensor(states)).numpy()
+    np.testing.assert_allclose(torch_cost, furuta_cost(states), atol=1e-12)
+    assert c.system.sensors.quantised and c.system.num_steps == 90
+    rng = np.random.default_rng(1)
+    trajectory = c.system.rollout(c.exploration(rng=rng), np.zeros(4), 30, rng)
+    readings = trajectory.measurements
+    np.testing.assert_allclose(
+        readings / (2 * np.pi / 4096), np.round(readings / (2 * np.pi / 4096))
+    )
+    c.model.fit([c.estimator.offline(readings, c.system.dt)], [trajectory.actions])
+    assert c.model.gp is not None and c.model.gp.train_inputs.shape == (30, 7)
