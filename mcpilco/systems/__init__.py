@@ -2,7 +2,16 @@
 
 from mcpilco.systems.base import Controller, MechanicalSystem, OdeSystem
 from mcpilco.systems.cartpole import CartPole
+from mcpilco.systems.cartpole_mujoco import CartPoleMujoco
 from mcpilco.systems.furuta import FurutaPendulum
 from mcpilco.systems.sensors import Sensors
 
-__all__ = ["CartPole", "Controller", "FurutaPendulum", "MechanicalSystem", "OdeSystem", "Sensors"]
+__all__ = [
+    "CartPole",
+    "CartPoleMujoco",
+    "Controller",
+    "FurutaPendulum",
+    "MechanicalSystem",
+    "OdeSystem",
+    "Sensors",
+]
