@@ -129,6 +129,10 @@ class ModelStructure(nn.Module, ABC):
         """Physically-inspired features ``[G, N, P]`` of GP inputs ``[N, D]`` (SP kernel)."""
         raise NotImplementedError
 
+    sees_readings: bool = False
+    """True when the policy acts on (histories of) raw readings rather than on states, so a
+    rollout simulates the sensors even with the identity estimator (derivative-free)."""
+
     def check_estimator(self, estimator: StateEstimator) -> None:
         """Refuse an estimator this structure cannot learn from (before any work): a
         state-based model needs full states, so raw readings must hold every component."""

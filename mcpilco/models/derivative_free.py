@@ -27,12 +27,16 @@ class DerivativeFree(ModelStructure):
     x*, the GPs ``[x*, u_t, u_{t−1}, …, u_{t−m_u}]``.
 
     The model is trained on raw position readings (``estimator=none``). Costs see the
-    state ``[q_t, (q_t − q_{t−1}) / dt]`` in the system's layout.
+    state ``[q_t, (q_t − q_{t−1}) / dt]`` in the system's layout. In a rollout the policy
+    reads the history of simulated noisy readings q̄ = q + e of each particle (thesis §4.1),
+    as it reads the real readings on the system.
 
     Args:
         m_q: position memory (≥ 1). m_u: input memory (≥ 0).
         inputs: ``differences`` or ``naive``. Others: see :class:`ModelStructure`.
     """
+
+    sees_readings = True
 
     def __init__(
         self,

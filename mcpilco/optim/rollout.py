@@ -28,8 +28,9 @@ class ParticleRollout:
     """Propagates M particles from p(x0) for T steps under a policy.
 
     Per step: the online estimator turns a simulated sensor reading of each particle
-    (fictitious Gaussian and quantisation noise, thesis §3.2) into what the policy sees —
-    with full-state measurement the policy sees the particle itself — the policy acts
+    (fictitious Gaussian and quantisation noise, thesis §3.2, §4.1) into what the policy
+    sees (for a derivative-free model: the history of simulated readings) — with full-state
+    measurement and a state-based model the policy sees the particle itself — the policy acts
     (with a fresh dropout mask per particle and step), the model samples the
     next particle with pre-drawn standard-normal noise (reparameterisation trick). All
     random numbers of a rollout are drawn up front in a few batched calls.
@@ -107,6 +108,8 @@ class ParticleRollout:
         particles = self.model.initial_particles(self.initial_mean + self.initial_std * start)
         states = [self.model.physical_state(particles)]
         memory = self.estimator.online_reset(num_particles, particles)
+        seen: torch.Tensor | None = None  # what the policy reads (a history for DF models)
+        actions: torch.Tensor | None = None
         for t in range(self.horizon):
             if readings is None:
                 # The policy sees the particle itself: encode its features once for both
@@ -120,7 +123,8 @@ class ParticleRollout:
                     states[-1], gaussian[t], None if uniform is None else uniform[t]
                 )
                 estimate, memory = self.estimator.online_step(reading, memory)
-                encoded, policy_inputs = None, self.model.policy_inputs(estimate)
+                seen = self.model.closed_loop_state(seen, estimate, actions)
+                encoded, policy_inputs = None, self.model.policy_inputs(seen)
             actions = act(policy_inputs, None if bits is None else bits[t], dropout)
             particles = self.model.step(particles, actions, noise[t], encoded)
             states.append(self.model.physical_state(particles))
@@ -132,8 +136,9 @@ class ParticleRollout:
         self, num_particles: int, generator: torch.Generator | None, like: dict[str, Any]
     ) -> tuple[torch.Tensor, torch.Tensor | None] | None:
         """Standard-normal ``[T, M, d_y]`` and U(0,1) ``[T, M, d_y]`` (only if quantised)
-        draws for the simulated readings; None with an identity estimator."""
-        if self.estimator.is_identity or self.sensors is None:
+        draws for the simulated readings; None when the policy sees the particle itself
+        (identity estimator and a state-based model, or sensors not simulated)."""
+        if self.sensors is None or (self.estimator.is_identity and not self.model.sees_readings):
             return None
         shape = (self.horizon, num_particles, self.sensors.reading_dim)
         gaussian = torch.randn(shape, generator=generator, **like)
