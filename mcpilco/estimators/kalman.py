@@ -71,6 +71,7 @@ class KalmanEstimator(PositionBasedEstimator):
         self.initial_covariance = prior
         self._gains: list[np.ndarray] = []  # K_t [d_q, 3] for t = 1, 2, ...
         self._covariance = prior.copy()
+        self._tensor_cache: dict[tuple[int, torch.dtype, torch.device], Any] = {}
 
     # --------------------------------------------------------------- covariance pass
     def _predict_update(self, covariance: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -88,6 +89,19 @@ class KalmanEstimator(PositionBasedEstimator):
             _, gain, self._covariance = self._predict_update(self._covariance)
             self._gains.append(gain)
         return self._gains[step - 1]
+
+    def _tensors(
+        self, step: int, dtype: torch.dtype, device: torch.device
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """Aᵀ ``[3, 3]`` and the gain ``[d_q, 3]`` of ``step`` as tensors, converted once per
+        step, dtype and device (the online step runs for every particle step)."""
+        key = (step, dtype, device)
+        if key not in self._tensor_cache:
+            self._tensor_cache[key] = (
+                torch.as_tensor(self.transition.T, dtype=dtype, device=device),
+                torch.as_tensor(self.gain(step), dtype=dtype, device=device),
+            )
+        return self._tensor_cache[key]
 
     # --------------------------------------------------------------------- offline
     def smooth(self, positions: np.ndarray) -> np.ndarray:
@@ -127,9 +141,8 @@ class KalmanEstimator(PositionBasedEstimator):
             zeros = torch.zeros_like(positions)
             state = torch.stack([positions, zeros, zeros], dim=-1)  # [B, d_q, 3]
         else:
-            like = {"dtype": positions.dtype, "device": positions.device}
-            prior = torch.matmul(memory["state"], torch.as_tensor(self.transition.T, **like))
-            gain = torch.as_tensor(self.gain(step), **like)
+            transition_t, gain = self._tensors(step, positions.dtype, positions.device)
+            prior = torch.matmul(memory["state"], transition_t)
             state = torch.addcmul(prior, (positions - prior[..., 0]).unsqueeze(-1), gain)
         estimate = self.assemble_tensor(state[..., 0], state[..., 1])
         return estimate, {"state": state, "step": step + 1}

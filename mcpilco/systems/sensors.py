@@ -54,6 +54,7 @@ class Sensors:
         )
         if np.any(self.resolution < 0):
             raise ConfigError(f"system.quantization must be >= 0, got {resolution!r}")
+        self._cache: dict[tuple[torch.dtype, torch.device], tuple[torch.Tensor, torch.Tensor]] = {}
 
     def _per_reading(self, name: str, value: float | Sequence[float]) -> np.ndarray:
         array = np.asarray(value, dtype=np.float64)
@@ -103,9 +104,20 @@ class Sensors:
             gaussian: standard normal ``[M, d_y]``.
             uniform: U(0, 1) ``[M, d_y]`` for the quantisation noise (None: not quantised).
         """
-        like = {"dtype": states.dtype, "device": states.device}
-        noise_std = torch.as_tensor(self.noise_std, **like)
+        noise_std, resolution = self._tensors(states.dtype, states.device)
         reading = states[:, list(self.measured)] + noise_std * gaussian
         if uniform is not None and self.quantised:
-            reading = reading + torch.as_tensor(self.resolution, **like) * (uniform - 0.5)
+            reading = reading + resolution * (uniform - 0.5)
         return reading
+
+    def _tensors(
+        self, dtype: torch.dtype, device: torch.device
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """σ and r as tensors, converted once per dtype/device (simulate runs every step)."""
+        key = (dtype, device)
+        if key not in self._cache:
+            self._cache[key] = (
+                torch.as_tensor(self.noise_std, dtype=dtype, device=device),
+                torch.as_tensor(self.resolution, dtype=dtype, device=device),
+            )
+        return self._cache[key]
