@@ -31,14 +31,19 @@ TINY = [
 ]
 
 
-def run_train(*overrides: str) -> subprocess.CompletedProcess[str]:
+def run_module(module: str, *args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
+    """``python -m module args...`` from the repository root, output captured."""
     return subprocess.run(
-        [sys.executable, "-m", "runners.train", *overrides],
+        [sys.executable, "-m", module, *args],
         cwd=ROOT,
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=timeout,
     )
+
+
+def run_train(*overrides: str) -> subprocess.CompletedProcess[str]:
+    return run_module("runners.train", *overrides)
 
 
 @pytest.mark.parametrize("kernel", ["sp"])
@@ -155,23 +160,12 @@ def test_partially_measured_run_logs_position_readings(tmp_path: Path) -> None:
     log = read_run_log(tmp_path / "rollouts.mcap")
     assert {"measurement_0", "measurement_1"} <= set(log.rollouts.columns)
     assert "measurement_2" not in log.rollouts.columns
-    evaluation = subprocess.run(
-        [sys.executable, "-m", "analysis.evaluate", str(tmp_path), "--runs", "4"],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    evaluation = run_module("analysis.evaluate", str(tmp_path), "--runs", "4")
     assert evaluation.returncode == 0, evaluation.stderr[-2000:]
     result = json.loads((tmp_path / "evaluation" / "trial_01.json").read_text())
     assert result["runs"] == 4 and result["trial"] == 1 and result["simulate_estimator"]
     assert 0 <= result["system_successes"] <= 4 and 0 <= result["model_successes"] <= 4
-    bad = subprocess.run(
-        [sys.executable, "-m", "analysis.evaluate", str(tmp_path), "--trial", "7"],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-    )
+    bad = run_module("analysis.evaluate", str(tmp_path), "--trial", "7")
     assert bad.returncode != 0 and "--trial=7" in bad.stderr
 
 

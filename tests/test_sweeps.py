@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import subprocess
-import sys
 from pathlib import Path
 
 import pandas as pd
 import pytest
+
+from tests.test_runner import run_module
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY_SWEEP = [
@@ -25,13 +26,7 @@ TINY_SWEEP = [
 
 
 def sweep(*overrides: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "runners.train", *overrides],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    return run_module("runners.train", *overrides, timeout=300)
 
 
 def job_summaries(sweep_dir: Path) -> dict[str, pd.DataFrame]:
