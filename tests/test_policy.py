@@ -63,13 +63,14 @@ def test_gradcheck_fused_policy(generator: torch.Generator) -> None:
     inverse = (0.5 + torch.rand(3, generator=generator, dtype=dtype)).requires_grad_()
     twice_centres_t = torch.randn(3, 5, generator=generator, dtype=dtype, requires_grad=True)
     offset = torch.randn(5, generator=generator, dtype=dtype, requires_grad=True)
-    weights = torch.randn(5, 2, generator=generator, dtype=dtype, requires_grad=True)
     bits = torch.randint(0, 256, (7, 5), generator=generator, dtype=torch.uint8)
-    for mask_bits, threshold in ((bits, 64), (None, 0)):
-        assert gradcheck(
-            lambda *a, b=mask_bits, k=threshold: _SquashedRBF.apply(*a, b, k, 3.0),
-            (x, inverse, twice_centres_t, offset, weights),
-        )
+    for actions in (2, 1):  # one action takes its own backward branch
+        weights = torch.randn(5, actions, generator=generator, dtype=dtype, requires_grad=True)
+        for mask_bits, threshold in ((bits, 64), (None, 0)):
+            assert gradcheck(
+                lambda *a, b=mask_bits, k=threshold: _SquashedRBF.apply(*a, b, k, 3.0),
+                (x, inverse, twice_centres_t, offset, weights),
+            )
 
 
 def test_exploration_is_uniform_and_bounded() -> None:

@@ -74,7 +74,10 @@ class _SquashedRBF(torch.autograd.Function):
         inputs, inverse, z, twice_centres_t, weights, squashed, activations = ctx.saved_tensors
         grad_hidden = squashed.square().sub_(1.0).mul_(grad).mul_(-ctx.u_max)  # [M, d_u]
         grad_weights = torch.mm(activations.T, grad_hidden)
-        weighted = torch.mm(grad_hidden, weights.T).mul_(activations)  # h [M, n_b]
+        if weights.shape[1] == 1:  # one action: an outer product; as mm (K=1) it is slow
+            weighted = torch.mul(activations, grad_hidden).mul_(weights.T)  # h [M, n_b]
+        else:
+            weighted = torch.mm(grad_hidden, weights.T).mul_(activations)
         grad_offset = weighted.sum(0)
         grad_twice_centres_t = torch.mm(z.T, weighted)
         grad_z = torch.mm(weighted, twice_centres_t.T)
