@@ -73,11 +73,20 @@ def exploration_data(experiment, n: int, seed: int = 0):  # type: ignore[no-unty
     return states, actions
 
 
-def time_steps(dtype: str, n: int, steps: int, warmup: int) -> tuple[float, float, float]:
+def synchronize(device: str) -> None:
+    """Wait for queued GPU work, so that wall-clock readings cover it."""
+    if device.startswith("cuda"):
+        torch.cuda.synchronize(device)
+
+
+def time_steps(
+    dtype: str, n: int, steps: int, warmup: int, device: str = "cpu"
+) -> tuple[float, float, float]:
     """Median seconds per optimisation step, achieved GFLOP/s, and the seconds of one
     gradient-free rollout (what the loggers' particle prediction costs)."""
+    overrides = [f"dtype={dtype}", "kernel=se", "model=speed_integration", f"device={device}"]
     with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
-        cfg = compose("train", overrides=[f"dtype={dtype}", "kernel=se", "model=speed_integration"])
+        cfg = compose("train", overrides=overrides)
     experiment = build(cfg)
     c = experiment.components
     states, actions = exploration_data(experiment, n)
@@ -92,15 +101,19 @@ def time_steps(dtype: str, n: int, steps: int, warmup: int) -> tuple[float, floa
     times = []
     with frozen(c.model):
         for step in range(warmup + steps):
+            synchronize(device)
             start = time.perf_counter()
             optimizer.zero_grad(set_to_none=True)
             rollout(particles, 0.25, experiment.streams.particles).total_cost.backward()
             optimizer.step()
+            synchronize(device)
             if step >= warmup:
                 times.append(time.perf_counter() - start)
     with torch.no_grad(), frozen(c.model):
+        synchronize(device)
         start = time.perf_counter()
         rollout(particles, 0.0, experiment.streams.particles)
+        synchronize(device)
         prediction = time.perf_counter() - start
     median = statistics.median(times)
     flops = rollout_flops(
@@ -190,6 +203,7 @@ def main() -> None:
     parser.add_argument("--warmup", type=int, default=3, help="untimed steps first")
     parser.add_argument("--threads", type=int, default=None, help="torch threads")
     parser.add_argument("--skip-fit", action="store_true", help="skip the GP fit comparison")
+    parser.add_argument("--device", default="cpu", help="cpu | cuda | cuda:K (the step timings)")
     args = parser.parse_args()
     keep_freed_memory()
     if args.threads:
@@ -197,11 +211,13 @@ def main() -> None:
     logging.basicConfig(level=logging.WARNING)
     print(f"torch {torch.__version__}, threads {torch.get_num_threads()}")  # noqa: T201
     print(f"machine float64 matmul: {matmul_gflops():.1f} GFLOP/s")  # noqa: T201
-    print("policy-optimisation step, M=400 T=60 n_b=200, speed-integration SE:")  # noqa: T201
+    print(  # noqa: T201
+        f"policy-optimisation step on {args.device}, M=400 T=60 n_b=200, speed-integration SE:"
+    )
     step_times, prediction = {}, 0.0
     for n in (60, 300):
         for dtype in ("float64", "float32"):
-            seconds, gflops, predict = time_steps(dtype, n, args.steps, args.warmup)
+            seconds, gflops, predict = time_steps(dtype, n, args.steps, args.warmup, args.device)
             step_times[n, dtype] = seconds
             prediction = predict if (n, dtype) == (60, "float64") else prediction
             print(  # noqa: T201
