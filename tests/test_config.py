@@ -38,7 +38,7 @@ def test_every_group_is_known() -> None:
     assert all(options(group) for group in GROUPS)  # no empty group silently empties the product
 
 
-INDEPENDENT = ("cost", "exploration", "optimizer")
+INDEPENDENT = ("cost", "exploration", "optimizer", "protocol")
 """Groups whose options read nothing but the system (state size, u_max, dt): each option is
 built with every system; all other groups are crossed in full."""
 COUPLED = [g for g in GROUPS if g not in INDEPENDENT]
@@ -100,13 +100,26 @@ def test_experiment_presets_build(experiment: str, extra: list[str]) -> None:
         ("ablation_model", "model", "speed_integration,full_state"),
     ],
 )
-def test_ablation_presets_name_their_sweep_axes(experiment: str, axis: str, values: str) -> None:
+@pytest.mark.parametrize("protocol,seeds", [("paper", 50), ("quick", 10)])
+def test_ablation_presets_name_their_sweep_axes(
+    experiment: str, axis: str, values: str, protocol: str, seeds: int
+) -> None:
+    overrides = [f"+experiment={experiment}", f"protocol={protocol}"]
     with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
-        cfg = compose("train", overrides=[f"+experiment={experiment}"], return_hydra_config=True)
+        cfg = compose("train", overrides=overrides, return_hydra_config=True)
     params = cfg.hydra.sweeper.params
-    assert params[axis] == values and params.seed == "range(0,50)"
+    assert params[axis] == values and params.seed == f"range(0,{seeds})"
     for option in values.split(","):  # every job of the sweep builds
-        build(make_config(f"+experiment={experiment}", f"{axis}={option}"))
+        optimizer = build(make_config(*overrides, f"{axis}={option}")).components.optimizer
+        quick = (100, 800, 800, 100)  # conf/protocol/quick.yaml
+        paper = (400, 2000, 4000, 200)  # thesis / reference code
+        settings = (
+            optimizer.num_particles,
+            optimizer.max_steps_first_trial,
+            optimizer.max_steps,
+            optimizer.schedule_options["window"],
+        )
+        assert settings == (quick if protocol == "quick" else paper)
 
 
 def test_unknown_option_lists_the_choices() -> None:
