@@ -1,6 +1,7 @@
 """Run a learned policy many times on the system and on its model, count the successes.
 
 ``python -m analysis.evaluate RUN_DIR [--trial K] [--runs 400] [--seed 0]``
+``python -m analysis.evaluate RUN_DIR --starts 0=-2,-1.5,-1,-0.5,0,0.5,1,1.5,2``
 
 Loads the run's config, the policy and GP checkpoints of trial K (default: the last
 finished trial), then
@@ -12,6 +13,11 @@ finished trial), then
 
 and applies the system's success criterion to every trajectory (thesis §3.3, Fig. 3.3).
 Writes ``evaluation/trial_KK.json`` in the run directory and prints a one-line summary.
+
+With ``--starts INDEX=V1,V2,...`` it instead runs the policy once on the system from each
+fixed start (p(x0)'s mean with state component INDEX set to each value, as in the thesis's
+multimodal test, §2.6.2, Fig. 2.9) and writes ``evaluation/trial_KK_starts.json`` and a plot
+of the trajectories (``.png``, ``.svg``).
 """
 
 from __future__ import annotations
@@ -86,14 +92,103 @@ def evaluate(run_dir: Path, trial: int | None, runs: int, seed: int) -> dict[str
     return result
 
 
+def parse_starts(text: str, state_dim: int) -> tuple[int, list[float]]:
+    """``"INDEX=V1,V2,..."`` → (state index, values); a one-line error otherwise."""
+    index_text, _, values_text = text.partition("=")
+    try:
+        index = int(index_text)
+        values = [float(v) for v in values_text.split(",") if v.strip()]
+    except ValueError:
+        raise SystemExit(f"--starts={text!r} must read INDEX=V1,V2,... (numbers)") from None
+    if not 0 <= index < state_dim or not values:
+        raise SystemExit(f"--starts={text!r}: INDEX in 0..{state_dim - 1} and at least one value")
+    return index, values
+
+
+def evaluate_starts(run_dir: Path, trial: int | None, starts: str, seed: int) -> dict[str, Any]:
+    """One system run of trial ``trial``'s policy from each fixed start; success per start."""
+    storage = RunDirectory(run_dir)
+    last = storage.finished_trials()
+    trial = last if trial is None else trial
+    if not 1 <= trial <= last:
+        raise SystemExit(f"--trial={trial}: {run_dir} has learned trials 1..{last}")
+    cfg = OmegaConf.load(run_dir / "config.yaml")
+    c = build(cfg).components  # type: ignore[arg-type]
+    index, values = parse_starts(starts, c.system.state_dim)
+    c.policy.load_state_dict(storage.load_checkpoint(trial, "policy"))
+    c.model.load_gp(storage.load_checkpoint(trial, "model"))
+    rng = np.random.default_rng(seed)
+    trajectories, outcomes = [], []
+    for value in values:
+        x0 = c.system.initial_mean.copy()
+        x0[index] = value
+        controller = PolicyController(c.policy, c.model, c.estimator)
+        trajectory = c.system.rollout(controller, x0, c.system.num_steps, rng)
+        metrics = c.system.evaluate(trajectory)
+        trajectories.append(trajectory)
+        outcomes.append(
+            {
+                "start": value,
+                "initial_state": x0.tolist(),
+                **{k: _plain(v) for k, v in metrics.items()},
+            }
+        )
+    result = {"trial": trial, "seed": seed, "component": index, "starts": outcomes}
+    name = f"evaluation/trial_{trial:02d}_starts"
+    storage.write_text(f"{name}.json", json.dumps(result, indent=2))
+    _plot_starts(run_dir / name, c.system, trajectories, values, index)
+    return result
+
+
+def _plain(value: Any) -> Any:
+    """numpy scalars → Python numbers (JSON)."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _plot_starts(
+    stem: Path, system: Any, trajectories: list[Trajectory], values: list[float], index: int
+) -> None:
+    """Every state component over time, one line per start (PNG and SVG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = list(system.state_names) or [f"x{i}" for i in range(system.state_dim)]
+    figure, axes = plt.subplots(1, system.state_dim, figsize=(3.2 * system.state_dim, 3))
+    colours = plt.get_cmap("viridis")(np.linspace(0, 1, len(values)))
+    for trajectory, value, colour in zip(trajectories, values, colours, strict=True):
+        time_axis = np.arange(trajectory.states.shape[0]) * trajectory.dt
+        for component, axis in enumerate(axes):
+            axis.plot(
+                time_axis, trajectory.states[:, component], color=colour, lw=1.2, label=f"{value:g}"
+            )
+    for component, axis in enumerate(axes):
+        axis.set_xlabel("t [s]")
+        axis.set_title(names[component])
+    axes[0].legend(title=f"start {names[index]}", fontsize=7)
+    figure.tight_layout()
+    for suffix in (".png", ".svg"):
+        figure.savefig(stem.with_suffix(suffix), dpi=120)
+    plt.close(figure)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("run_dir", type=Path)
     parser.add_argument("--trial", type=int, default=None, help="default: last finished")
     parser.add_argument("--runs", type=int, default=400)
     parser.add_argument("--seed", type=int, default=0, help="x0, noise and particle seed")
+    parser.add_argument("--starts", default=None, help="INDEX=V1,V2,...: one run per start")
     args = parser.parse_args()
     logging.basicConfig(level=logging.WARNING)
+    if args.starts is not None:
+        outcome = evaluate_starts(args.run_dir, args.trial, args.starts, args.seed)
+        wins = sum(bool(s.get("success", False)) for s in outcome["starts"])
+        print(  # noqa: T201
+            f"trial {outcome['trial']}: {wins}/{len(outcome['starts'])} starts succeed"
+        )
+        return
     result = evaluate(args.run_dir, args.trial, args.runs, args.seed)
     print(  # noqa: T201
         f"trial {result['trial']}: system {result['system_successes']}/{result['runs']}, "

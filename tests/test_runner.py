@@ -167,6 +167,20 @@ def test_partially_measured_run_logs_position_readings(tmp_path: Path) -> None:
     assert 0 <= result["system_successes"] <= 4 and 0 <= result["model_successes"] <= 4
     bad = run_module("analysis.evaluate", str(tmp_path), "--trial", "7")
     assert bad.returncode != 0 and "--trial=7" in bad.stderr
+    # fixed starts (the multimodal test of thesis Fig. 2.9): one run from each cart position
+    starts = run_module("analysis.evaluate", str(tmp_path), "--starts", "0=-1,0,1.5")
+    assert starts.returncode == 0, starts.stderr[-2000:]
+    outcome = json.loads((tmp_path / "evaluation" / "trial_01_starts.json").read_text())
+    assert [s["start"] for s in outcome["starts"]] == [-1.0, 0.0, 1.5]
+    assert [s["initial_state"] for s in outcome["starts"]] == [
+        [-1.0, 0, 0, 0],
+        [0.0, 0, 0, 0],
+        [1.5, 0, 0, 0],
+    ]
+    assert all(isinstance(s["success"], bool) for s in outcome["starts"])
+    assert (tmp_path / "evaluation" / "trial_01_starts.png").stat().st_size > 0
+    bad = run_module("analysis.evaluate", str(tmp_path), "--starts", "9=1")
+    assert bad.returncode != 0 and "--starts='9=1'" in bad.stderr
 
 
 def test_derivative_free_run_learns_from_position_readings(tmp_path: Path) -> None:
