@@ -6,7 +6,8 @@
 * ``success_rates.md`` / ``.csv``: per configuration and trial, the runs whose policy
   succeeded, the rate with its Wilson 95 % interval, and the thesis's rate beside it;
 * ``cumulative_cost.png`` / ``.svg``: per configuration, the median and 5–95 percentile band
-  of the cumulative evaluation cost (2.17) over the seeds, per trial;
+  of the cumulative evaluation cost (2.17) over the seeds, per trial, with the optimal and
+  sub-optimal swing-up costs measured from the sweep's successes (:mod:`analysis.swing_up`);
 * ``precision.md`` / ``.csv``: Table 2.2 — mean ± std distance from the target over the
   last second of the successful runs at the last trial;
 * ``index.md``: what is where, the runs that failed, and the command.
@@ -30,6 +31,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 from omegaconf import OmegaConf  # noqa: E402
 
+from analysis.swing_up import ReferenceCost, reference_costs  # noqa: E402
 from analysis.thesis import PRECISION, SUCCESS_RATES, configuration_label  # noqa: E402
 
 
@@ -144,8 +146,11 @@ def precision_markdown(table: pd.DataFrame) -> str:
     return "\n".join(lines) + "\n"
 
 
-def cumulative_cost_figure(trials: pd.DataFrame, out: Path) -> list[Path]:
-    """Median and 5–95 percentile band of the cumulative cost per trial, per configuration."""
+def cumulative_cost_figure(
+    trials: pd.DataFrame, out: Path, references: Sequence[ReferenceCost] = ()
+) -> list[Path]:
+    """Median and 5–95 percentile band of the cumulative cost per trial, per configuration,
+    and a dashed line per reference cost."""
     configurations = sorted(trials["configuration"].unique())
     figure, axes = plt.subplots(
         1, len(configurations), figsize=(4.5 * len(configurations), 3.6), squeeze=False
@@ -164,6 +169,14 @@ def cumulative_cost_figure(trials: pd.DataFrame, out: Path) -> list[Path]:
         )
         axis.fill_between(stats.index, stats["low"], stats["high"], alpha=0.3, label="5–95 %")
         axis.plot(stats.index, stats["median"], "o-", label="median")
+        for reference, style in zip(references, ("--", ":"), strict=False):
+            axis.axhline(
+                reference.cost,
+                color="k",
+                ls=style,
+                lw=1,
+                label=f"{reference.name} ({reference.swings} swing{'s' * (reference.swings > 1)})",
+            )
         for trial, row in stats.iterrows():
             if trial >= 1:
                 axis.annotate(
@@ -194,7 +207,8 @@ def write_report(paths: Sequence[Path], out: Path, command: str) -> dict[str, Pa
     table = precision(trials)
     table.to_csv(out / "precision.csv", index=False)
     (out / "precision.md").write_text(precision_markdown(table))
-    figures = cumulative_cost_figure(trials, out)
+    references = reference_costs(trials)
+    figures = cumulative_cost_figure(trials, out, references)
     runs = trials.groupby("configuration")["run"].nunique()
     index = [
         "# Sweep report",
@@ -208,6 +222,16 @@ def write_report(paths: Sequence[Path], out: Path, command: str) -> dict[str, Pa
         "- [success rates per trial](success_rates.md) ([csv](success_rates.csv))",
         "- [precision at the target, Table 2.2](precision.md) ([csv](precision.csv))",
         *[f"- ![cumulative cost]({p.name})" for p in figures if p.suffix == ".png"],
+        "",
+        "Reference lines (measured here, analysis/swing_up.py: median cumulative cost of the "
+        "successful rollouts by number of pole swings before upright): "
+        + (
+            "; ".join(
+                f"{r.name} = {r.cost:.1f} ({r.swings} swing(s), {r.count} rollouts)"
+                for r in references
+            )
+            or "none (no successful rollouts)"
+        ),
         "",
         "Failed runs: " + (", ".join(f"`{p}`" for p in failed) if failed else "none"),
         "",

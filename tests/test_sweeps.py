@@ -5,9 +5,11 @@ from __future__ import annotations
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
+from analysis.swing_up import pole_swings
 from tests.test_runner import run_module
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -143,3 +145,15 @@ def test_configuration_labels_name_the_thesis_rows() -> None:
         config = OmegaConf.to_container(cfg, resolve=True)
         assert configuration_label(config) == label  # type: ignore[arg-type]
     assert "S.I., SE, dropout, l=(3,1)" in SUCCESS_RATES
+
+
+def test_pole_swings_counts_velocity_reversals_before_upright() -> None:
+    # pumped swing-up: right, left, right, then over the top (2 reversals before upright);
+    # the first sample is rest noise below the dead band and has no sign
+    velocity = np.array([-0.01, 2.0, 1.0, -1.5, -2.0, 1.0, 3.0, 4.0, 0.5, -0.5])
+    angle = np.array([0.0, 0.3, 0.6, 0.4, -0.5, -0.3, 1.0, 2.5, 3.1, 3.2])
+    assert pole_swings(angle, velocity) == 2  # upright first at index 8 (|3.1 − π| < 20°)
+    assert pole_swings(angle - 2 * np.pi, velocity) == 2  # angles are not wrapped in logs
+    assert pole_swings(angle, -velocity) == 2
+    assert pole_swings(np.zeros(10), velocity) is None  # never upright
+    assert pole_swings(angle, np.full(10, 0.01)) == 0  # only noise: no swing
