@@ -10,6 +10,9 @@
   sub-optimal swing-up costs measured from the sweep's successes (:mod:`analysis.swing_up`);
 * ``precision.md`` / ``.csv``: Table 2.2 — mean ± std distance from the target over the
   last second of the successful runs at the last trial;
+* ``prediction_errors.png`` / ``.svg`` / ``.csv``: box plots (Fig. 4.2) and quartiles of the
+  absolute one-step prediction errors of each run's last model on its last trial's data
+  (:mod:`analysis.prediction_errors`);
 * ``index.md``: what is where, the runs that failed, and the command.
 
 A configuration is everything in the resolved config but the seed (named thesis-style, see
@@ -31,6 +34,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 from omegaconf import OmegaConf  # noqa: E402
 
+from analysis.prediction_errors import prediction_error_figure, prediction_errors  # noqa: E402
 from analysis.swing_up import ReferenceCost, reference_costs  # noqa: E402
 from analysis.thesis import PRECISION, SUCCESS_RATES, configuration_label  # noqa: E402
 
@@ -209,6 +213,11 @@ def write_report(paths: Sequence[Path], out: Path, command: str) -> dict[str, Pa
     (out / "precision.md").write_text(precision_markdown(table))
     references = reference_costs(trials)
     figures = cumulative_cost_figure(trials, out, references)
+    errors = prediction_errors(trials)
+    if not errors.empty:
+        figures += prediction_error_figure(errors, out)
+        quartiles = errors.groupby(["configuration", "output"])["error"].describe()
+        quartiles.to_csv(out / "prediction_errors.csv")
     runs = trials.groupby("configuration")["run"].nunique()
     index = [
         "# Sweep report",
@@ -221,7 +230,7 @@ def write_report(paths: Sequence[Path], out: Path, command: str) -> dict[str, Pa
         "",
         "- [success rates per trial](success_rates.md) ([csv](success_rates.csv))",
         "- [precision at the target, Table 2.2](precision.md) ([csv](precision.csv))",
-        *[f"- ![cumulative cost]({p.name})" for p in figures if p.suffix == ".png"],
+        *[f"- ![{p.stem}]({p.name})" for p in figures if p.suffix == ".png"],
         "",
         "Reference lines (measured here, analysis/swing_up.py: median cumulative cost of the "
         "successful rollouts by number of pole swings before upright): "

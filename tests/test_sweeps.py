@@ -111,6 +111,11 @@ def check_report(sweep_dir: Path, summaries: dict[str, pd.DataFrame]) -> None:
         assert (row.runs, row.successes) == (len(runs), expected)
     for name in ("index.md", "success_rates.md", "precision.md", "cumulative_cost.png"):
         assert (sweep_dir / "report" / name).stat().st_size > 0
+    # one-step prediction errors of trial 1's model on trial 1's 10 steps, both GP outputs
+    errors = pd.read_csv(sweep_dir / "report" / "prediction_errors.csv")
+    assert sorted(errors["output"]) == ["d_x1", "d_x1", "d_x3", "d_x3"]
+    assert (errors["count"] == 2 * 10).all() and (errors["min"] >= 0).all()
+    assert (sweep_dir / "report" / "prediction_errors.png").stat().st_size > 0
 
 
 def test_wilson_interval_matches_the_textbook_value() -> None:
