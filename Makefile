@@ -29,7 +29,7 @@ test-slow: $(STAMP)  ## run the long learning tests too
 	$(PY) -m pytest -q -m slow
 
 bench: $(STAMP)  ## time one policy-optimisation step and a GP fit
-	$(PY) -m runners.bench
+	$(PY) -m runners.bench $(ARGS)
 
 lint: $(STAMP)  ## ruff
 	$(VENV)/bin/ruff check mcpilco runners analysis tests
