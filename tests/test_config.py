@@ -10,7 +10,8 @@ import pytest
 import torch
 from hydra import compose, initialize_config_dir
 from hydra.errors import MissingConfigException
-from omegaconf import DictConfig
+from hydra.utils import get_class
+from omegaconf import DictConfig, OmegaConf
 
 from mcpilco.build import build
 from mcpilco.errors import ConfigError
@@ -46,8 +47,11 @@ COUPLED = [g for g in GROUPS if g not in INDEPENDENT]
 
 def build_choice(chosen: dict[str, str]) -> None:
     overrides = [f"{g}={o}" for g, o in chosen.items()]
-    if chosen.get("estimator", "none") != "none":
-        overrides.append("system.measured_indices=[0,2]")  # velocity estimators: PMS
+    if chosen.get("estimator", "none") != "none":  # velocity estimators: positions only
+        positions = get_class(
+            OmegaConf.load(CONFIG_DIR / "system" / f"{chosen['system']}.yaml")._target_
+        ).position_indices
+        overrides.append(f"system.measured_indices=[{','.join(map(str, positions))}]")
     cfg = make_config(*overrides)
     if chosen.get("model") == "derivative_free" and chosen.get("estimator", "none") != "none":
         with pytest.raises(ConfigError, match="estimator=none"):  # DF learns from raw readings

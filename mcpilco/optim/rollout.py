@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,6 +41,8 @@ class ParticleRollout:
         cost: c(x) on states ``[..., d_x]``. estimator: online estimator.
         initial_mean, initial_std: p(x0) = N(mean, diag(std²)), ``[d_x]`` each.
         horizon: T.
+        initial_uniform: p(x0) uniform on mean ± std instead (each standard-normal draw z
+            becomes erf(z/√2), uniform on (−1, 1)).
         sensors: the system's sensors, simulated on the particles for a non-identity
             estimator (None: the policy sees the particle itself).
     """
@@ -54,7 +57,9 @@ class ParticleRollout:
         initial_std: torch.Tensor,
         horizon: int,
         sensors: Sensors | None = None,
+        initial_uniform: bool = False,
     ) -> None:
+        self.initial_uniform = initial_uniform
         self.sensors = sensors
         self.model = model
         self.policy = policy
@@ -87,6 +92,7 @@ class ParticleRollout:
             initial_std=torch.as_tensor(system.initial_std, dtype=like.dtype, device=like.device),
             horizon=system.num_steps,
             sensors=system.sensors if simulate_estimator else None,
+            initial_uniform=system.initial_distribution == "uniform",
         )
 
     def __call__(
@@ -105,7 +111,7 @@ class ParticleRollout:
         )
         readings = self._reading_noise(num_particles, generator, like)
         act = self.policy.prepare()
-        particles = self.model.initial_particles(self.initial_mean + self.initial_std * start)
+        particles = self.model.initial_particles(self.initial_states(start))
         states = [self.model.physical_state(particles)]
         memory = self.estimator.online_reset(num_particles, particles)
         seen: torch.Tensor | None = None  # what the policy reads (a history for DF models)
@@ -131,6 +137,12 @@ class ParticleRollout:
         trajectory = torch.stack(states)  # [T+1, M, d_x]
         step_costs = self.cost(trajectory).mean(-1)  # [T+1]
         return RolloutResult(step_costs.sum(), step_costs, trajectory)
+
+    def initial_states(self, standard_normal: torch.Tensor) -> torch.Tensor:
+        """Samples of p(x0) ``[M, d_x]`` from standard-normal draws ``[M, d_x]``."""
+        if self.initial_uniform:
+            standard_normal = torch.special.erf(standard_normal * math.sqrt(0.5))
+        return self.initial_mean + self.initial_std * standard_normal
 
     def _reading_noise(
         self, num_particles: int, generator: torch.Generator | None, like: dict[str, Any]

@@ -3,6 +3,7 @@
 from mcpilco.policies.exploration import (
     FilteredNoiseExploration,
     SumOfSinesExploration,
+    TriangularWaveExploration,
     UniformRandomExploration,
 )
 from mcpilco.policies.rbf import SquashedRBFPolicy
@@ -11,5 +12,6 @@ __all__ = [
     "FilteredNoiseExploration",
     "SquashedRBFPolicy",
     "SumOfSinesExploration",
+    "TriangularWaveExploration",
     "UniformRandomExploration",
 ]

@@ -110,3 +110,43 @@ class FilteredNoiseExploration:
         noise = self.input_std * self.rng.standard_normal((self.action_dim, 1))
         output, self.state = _signal().lfilter(self.b, self.a, noise, axis=-1, zi=self.state)
         return np.clip(output[:, 0], -self.u_max, self.u_max)
+
+
+class TriangularWaveExploration:
+    """A triangular wave plus white noise per action component (thesis §3.4.2's exploration
+    of the ball-and-plate), clipped to ±u_max. Each component's period is drawn from
+    U(``min_period_s``, ``max_period_s``) and its phase from U(0, 1) periods, once.
+
+    Args:
+        u_max: action bound. action_dim: d_u. rng: random source (the system's).
+        dt: sampling time in s. amplitude: peak of the wave (default u_max / 2).
+        noise_std: std of the added white noise (default amplitude / 4).
+    """
+
+    def __init__(
+        self,
+        u_max: float,
+        action_dim: int,
+        rng: np.random.Generator,
+        dt: float,
+        amplitude: float | None = None,
+        noise_std: float | None = None,
+        min_period_s: float = 0.5,
+        max_period_s: float = 2.0,
+    ) -> None:
+        if not 2 * dt <= min_period_s <= max_period_s:
+            raise ConfigError(
+                f"exploration needs 2 dt <= min_period_s <= max_period_s, got dt={dt}, "
+                f"{min_period_s}, {max_period_s}"
+            )
+        self.amplitude = u_max / 2 if amplitude is None else min(amplitude, u_max)
+        self.noise_std = self.amplitude / 4 if noise_std is None else noise_std
+        self.periods = rng.uniform(min_period_s, max_period_s, size=action_dim)
+        self.phases = rng.uniform(0.0, 1.0, size=action_dim)
+        self.u_max, self.action_dim, self.rng, self.dt = u_max, action_dim, rng, dt
+
+    def __call__(self, measurement: np.ndarray, step: int) -> np.ndarray:
+        cycle = np.remainder(step * self.dt / self.periods + self.phases, 1.0)
+        wave = self.amplitude * (4 * np.abs(cycle - 0.5) - 1)  # −A … A … −A over a period
+        noise = self.noise_std * self.rng.standard_normal(self.action_dim)
+        return np.clip(wave + noise, -self.u_max, self.u_max)

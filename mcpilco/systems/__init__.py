@@ -1,5 +1,6 @@
 """Systems: the plants a policy is learned for (one file per plant, one interface)."""
 
+from mcpilco.systems.ball_and_plate import BallAndPlate
 from mcpilco.systems.base import Controller, MechanicalSystem, OdeSystem
 from mcpilco.systems.cartpole import CartPole
 from mcpilco.systems.cartpole_mujoco import CartPoleMujoco
@@ -7,6 +8,7 @@ from mcpilco.systems.furuta import FurutaPendulum
 from mcpilco.systems.sensors import Sensors
 
 __all__ = [
+    "BallAndPlate",
     "CartPole",
     "CartPoleMujoco",
     "Controller",

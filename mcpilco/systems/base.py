@@ -41,10 +41,13 @@ class MechanicalSystem(ABC):
         measurement_noise_std: std of the additive white Gaussian sensor noise, one value
             per measured component or one for all.
         initial_mean: mean of p(x0), ``[d_x]``.
-        initial_std: std of p(x0) (diagonal), one value per component or one for all.
+        initial_std: std of p(x0) (diagonal), one value per component or one for all; the
+            half-width of each component's interval when p(x0) is uniform.
         measured_indices: the state components the sensors read (None: all; a partially
             measurable system reads positions only, see :class:`Sensors`).
         quantization: resolution of the readings (encoders, cameras), None for none.
+        initial_distribution: ``normal`` (x0 ~ N(mean, diag(std²))) or ``uniform``
+            (each component uniform on mean ± std, e.g. a ball anywhere on a plate).
     """
 
     position_indices: tuple[int, ...] = ()
@@ -64,7 +67,13 @@ class MechanicalSystem(ABC):
         initial_std: float | Sequence[float],
         measured_indices: Sequence[int] | None = None,
         quantization: float | Sequence[float] | None = None,
+        initial_distribution: str = "normal",
     ) -> None:
+        if initial_distribution not in ("normal", "uniform"):
+            raise ConfigError(
+                f"system.initial_distribution={initial_distribution!r} must be normal or uniform"
+            )
+        self.initial_distribution = initial_distribution
         self.dt = _positive("dt", dt)
         self.trial_duration = _positive("trial_duration", trial_duration)
         self.u_max = _positive("u_max", u_max)
@@ -102,7 +111,9 @@ class MechanicalSystem(ABC):
         return int(round(self.trial_duration / self.dt))
 
     def sample_initial_state(self, rng: np.random.Generator) -> np.ndarray:
-        """Draw x0 ~ N(initial_mean, diag(initial_std²)), ``[d_x]``."""
+        """Draw x0 ~ p(x0) ``[d_x]`` (see ``initial_distribution``)."""
+        if self.initial_distribution == "uniform":
+            return self.initial_mean + self.initial_std * rng.uniform(-1.0, 1.0, self.state_dim)
         return self.initial_mean + self.initial_std * rng.standard_normal(self.state_dim)
 
     def measure(self, state: np.ndarray, rng: np.random.Generator) -> np.ndarray:
