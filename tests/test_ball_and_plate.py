@@ -7,6 +7,7 @@ import pytest
 import torch
 
 from mcpilco.models.features import AngleFeatures
+from mcpilco.models.speed_integration import SpeedIntegration
 from mcpilco.optim.rollout import ParticleRollout
 from mcpilco.policies import TriangularWaveExploration
 from mcpilco.systems import BallAndPlate
@@ -123,3 +124,52 @@ def test_triangular_exploration_is_bounded_and_periodic() -> None:
         step = int(round(period_steps[k]))
         if abs(period_steps[k] - step) < 1e-9:
             np.testing.assert_allclose(signal[step:, k], signal[:-step, k], atol=1e-12)
+
+
+def test_known_coordinates_move_the_motors_as_the_simulator_does() -> None:
+    """Speed-integration with known coordinates: two GP outputs (the ball), the motors'
+    next angle and speed exactly the simulator's, the ball integrated at constant
+    acceleration from the GP's velocity change."""
+    system = BallAndPlate()
+    model = SpeedIntegration(
+        system,
+        kernel=None,
+        gp=None,
+        fit=None,
+        known_coordinates=True,  # type: ignore[arg-type]
+    )
+    assert model.output_names == ["d_x2", "d_x3"] and model.num_outputs == 2
+    rng = np.random.default_rng(4)
+    x = rng.uniform(-1, 1, (5, 8)) * [0.08, 0.08, 0.2, 0.2, 0.1, 0.1, 1.0, 1.0]
+    u = rng.uniform(-1, 1, (5, 2)) * system.u_max
+    deltas = rng.normal(size=(2, 5)) * 0.01  # GP velocity changes of bx, by
+    following = model.transition(torch.as_tensor(x), torch.as_tensor(u), torch.as_tensor(deltas))
+    following = following.numpy()
+    for m in range(5):
+        simulated = system.step(x[m], u[m])
+        np.testing.assert_allclose(following[m, 4:8], simulated[4:8], atol=1e-12)
+    dt = system.dt
+    np.testing.assert_allclose(following[:, 2:4], x[:, 2:4] + deltas.T, atol=1e-15)
+    np.testing.assert_allclose(
+        following[:, 0:2], x[:, 0:2] + dt * x[:, 2:4] + 0.5 * dt * deltas.T, atol=1e-15
+    )
+    states = torch.as_tensor(np.array([system.step(x[0], u[0]), x[0]]))
+    np.testing.assert_allclose(
+        model.gp_targets(states).numpy(), (x[0] - states[0].numpy())[[2, 3]][None]
+    )
+    basis = model.output_basis(torch.zeros(3, model.gp_input_dim, dtype=torch.float64))
+    assert basis.shape[0] == 2  # the ball's rows only
+
+
+def test_known_coordinates_need_a_system_that_knows_some() -> None:
+    from mcpilco.errors import ConfigError
+    from mcpilco.systems import CartPole
+
+    with pytest.raises(ConfigError, match="known_coordinates"):
+        SpeedIntegration(
+            CartPole(),
+            kernel=None,
+            gp=None,
+            fit=None,
+            known_coordinates=True,  # type: ignore[arg-type]
+        )

@@ -58,6 +58,7 @@ class BallAndPlate(OdeSystem):
     velocity_indices = (2, 3, 6, 7)
     angle_indices = (4, 5)
     action_dim = 2
+    known_coordinates = (2, 3)  # the motors: θ_{t+1} = θ_t + u_t, θ̇_{t+1} = u_t / T_s
     state_names = (
         "bx [m]",
         "by [m]",
@@ -130,6 +131,17 @@ class BallAndPlate(OdeSystem):
         moving = np.array(state, dtype=np.float64)
         moving[6:8] = np.asarray(action, dtype=np.float64) / self.dt
         return super().step(moving, action)
+
+    def known_transition(
+        self, states: torch.Tensor, actions: torch.Tensor, coordinates: Sequence[int]
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """The motors (coordinates 2, 3) turn by the commanded increment at u/T_s."""
+        if any(k not in self.known_coordinates for k in coordinates):
+            raise ValueError(f"coordinates {list(coordinates)} are not all known (2, 3)")
+        motors = [k - 2 for k in coordinates]
+        increments = actions[..., motors]
+        positions = states[..., [4 + m for m in motors]] + increments
+        return positions, increments / self.dt
 
     def on_plate(self, states: np.ndarray) -> np.ndarray:
         """Whether the ball ``[..., 8]`` is clear of the border (bool ``[...]``)."""

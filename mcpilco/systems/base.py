@@ -56,6 +56,9 @@ class MechanicalSystem(ABC):
     action_dim: int = 1
     state_names: tuple[str, ...] = ()
     """Labels of the state components with units, for plots (``x0``, ``x1``, ... if empty)."""
+    known_coordinates: tuple[int, ...] = ()
+    """Coordinates k (positions ``position_indices[k]`` and their velocities) whose next
+    values the system knows exactly from state and action (see :meth:`known_transition`)."""
 
     def __init__(
         self,
@@ -160,6 +163,14 @@ class MechanicalSystem(ABC):
         raise NotImplementedError(
             f"{type(self).__name__} has no physical basis; the SP kernel needs one"
         )
+
+    def known_transition(
+        self, states: torch.Tensor, actions: torch.Tensor, coordinates: Sequence[int]
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """Next positions and velocities ``([M, k], [M, k])`` of ``coordinates`` (a subset of
+        ``known_coordinates``) from states ``[M, d_x]`` and actions ``[M, d_u]``, in torch
+        (differentiable); for models that take them from the system instead of GPs."""
+        raise NotImplementedError(f"{type(self).__name__} knows no coordinate's transition")
 
     def sketch(self, states: np.ndarray) -> np.ndarray | None:
         """A 2-D drawing of each state for viewers: line segments ``[T+1, S, 2, 2]`` (S
