@@ -1,0 +1,210 @@
+"""UR5 joint-space tracking task (thesis §2.6.3): the arm in MuJoCo, an end-effector circle
+turned into a joint reference by inverse kinematics, and the poorly tuned PD exploration."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from mcpilco.errors import ConfigError
+from mcpilco.systems.base import MechanicalSystem
+from mcpilco.systems.mujoco_sim import MujocoSimulation
+from mcpilco.systems.ur5_model import dh_forward_kinematics, ur5_mjcf
+from mcpilco.trajectory import Trajectory
+
+NOMINAL_POSE = (0.0, -1.2, 1.6, -1.97, -1.57, 0.0)
+"""A comfortable elbow-up configuration (rad) that the IK starts from and is pulled toward."""
+
+
+def flange_position(q: np.ndarray) -> np.ndarray:
+    """Tool-flange position ``[3]`` (m, base frame) of joint angles ``q [6]``."""
+    return dh_forward_kinematics(q)[:3, 3]
+
+
+def position_jacobian(q: np.ndarray, step: float = 1e-7) -> np.ndarray:
+    """∂ flange position / ∂q ``[3, 6]`` by central differences of the DH chain."""
+    columns = []
+    for k in range(6):
+        shift = np.zeros(6)
+        shift[k] = step
+        columns.append((flange_position(q + shift) - flange_position(q - shift)) / (2 * step))
+    return np.stack(columns, axis=1)
+
+
+def inverse_kinematics(
+    target: np.ndarray,
+    start: np.ndarray,
+    nominal: np.ndarray,
+    iterations: int = 200,
+    tolerance: float = 1e-8,
+    damping: float = 1e-6,
+    pull: float = 1e-3,
+) -> np.ndarray:
+    """Joint angles ``[6]`` whose flange is at ``target [3]``: damped least squares from
+    ``start``, with the redundant directions pulled gently toward ``nominal``."""
+    q = np.array(start, dtype=np.float64)
+    for _ in range(iterations):
+        error = target - flange_position(q)
+        if float(error @ error) < tolerance**2:
+            break
+        jacobian = position_jacobian(q)
+        inverse = jacobian.T @ np.linalg.inv(jacobian @ jacobian.T + damping * np.eye(3))
+        null = np.eye(6) - inverse @ jacobian
+        step = inverse @ error + pull * null @ (nominal - q)
+        q = q + step * min(1.0, 0.2 / max(float(np.linalg.norm(step)), 1e-12))  # ≤ 0.2 rad
+    if float(np.linalg.norm(target - flange_position(q))) > 1e-6:
+        raise ConfigError(f"system: the circle point {target.tolist()} is out of the UR5's reach")
+    return q
+
+
+class CircleReference:
+    """The flange drawing a circle in a horizontal (X-Y) plane once per trial, and its
+    joint-space reference by inverse kinematics.
+
+    Args:
+        centre: circle centre (m, base frame) ``[3]``. radius: m.
+        duration: time for one turn (s). dt: sampling time (s).
+        nominal: joint angles the IK starts from (rad).
+    """
+
+    def __init__(
+        self,
+        centre: Sequence[float],
+        radius: float,
+        duration: float,
+        dt: float,
+        nominal: Sequence[float] = NOMINAL_POSE,
+    ) -> None:
+        if radius <= 0:
+            raise ConfigError(f"system.circle_radius must be > 0, got {radius}")
+        self.centre = np.asarray(centre, dtype=np.float64)
+        self.radius, self.duration, self.dt = float(radius), float(duration), float(dt)
+        steps = int(round(duration / dt))
+        angles = 2 * np.pi * np.arange(steps + 1) * dt / duration
+        self.points = self.centre + radius * np.stack(
+            [np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=-1
+        )  # [T+1, 3]
+        nominal_q = np.asarray(nominal, dtype=np.float64)
+        q, positions = nominal_q, []
+        for point in self.points:
+            q = inverse_kinematics(point, q, nominal_q)
+            positions.append(q)
+        self.positions = np.array(positions)  # [T+1, 6]
+        # central differences inside, second-order one-sided ones at the ends (the joints
+        # need not close the loop exactly: the arm is redundant for a position task)
+        self.velocities = np.gradient(self.positions, dt, axis=0, edge_order=2)  # [T+1, 6]
+
+    @property
+    def states(self) -> np.ndarray:
+        """``[q_ref, q̇_ref]`` per sample, ``[T+1, 12]``."""
+        return np.concatenate([self.positions, self.velocities], axis=-1)
+
+
+class UR5(MechanicalSystem):
+    """The UR5 in MuJoCo (:func:`~mcpilco.systems.ur5_model.ur5_mjcf`) tracking a circle:
+    state ``[q, q̇]`` (rad, rad/s, 12), action the six joint torques (N m, |τ| ≤ u_max).
+
+    With ``gravity_compensation`` (default) the simulation runs without gravity, i.e. with a
+    perfect gravity compensation under the learned torques — the thesis's u_max of 1 N m
+    per joint could not hold the arm up otherwise (assumption: the thesis does not say).
+    p(x0) is centred on the reference's first state.
+
+    Args:
+        circle_centre, circle_radius: the flange's circle (m). timestep: MuJoCo's step (s).
+        joint_damping: N m s/rad. success_error_mm: mean flange error that counts as a
+            success. Others: see :class:`MechanicalSystem` (the thesis: T_s 0.02 s, 4 s,
+            noise std 1e-3, x0 std 1e-3).
+    """
+
+    position_indices = (0, 1, 2, 3, 4, 5)
+    velocity_indices = (6, 7, 8, 9, 10, 11)
+    angle_indices = (0, 1, 2, 3, 4, 5)
+    action_dim = 6
+    state_names = tuple(f"q{k + 1} [rad]" for k in range(6)) + tuple(
+        f"q̇{k + 1} [rad/s]" for k in range(6)
+    )
+
+    def __init__(
+        self,
+        dt: float = 0.02,
+        trial_duration: float = 4.0,
+        u_max: float = 1.0,
+        measurement_noise_std: float | Sequence[float] = 1e-3,
+        initial_std: float | Sequence[float] = 1e-3,
+        measured_indices: Sequence[int] | None = None,
+        quantization: float | Sequence[float] | None = None,
+        circle_centre: Sequence[float] = (-0.5, -0.1, 0.3),
+        circle_radius: float = 0.1,
+        gravity_compensation: bool = True,
+        joint_damping: float = 0.0,
+        timestep: float = 1e-3,
+        success_error_mm: float = 2.0,
+    ) -> None:
+        self.reference = CircleReference(circle_centre, circle_radius, trial_duration, dt)
+        super().__init__(
+            dt,
+            trial_duration,
+            u_max,
+            measurement_noise_std,
+            self.reference.states[0],
+            initial_std,
+            measured_indices,
+            quantization,
+        )
+        xml = ur5_mjcf(damping=joint_damping, torque_limit=u_max)
+        if gravity_compensation:
+            xml = xml.replace('gravity="0 0 -9.81"', 'gravity="0 0 0"')
+        self.simulation = MujocoSimulation(xml, dt, timestep=timestep)
+        self.success_error_mm = success_error_mm
+
+    def step(self, state: np.ndarray, action: np.ndarray) -> np.ndarray:
+        positions, velocities = self.simulation.step(state[:6], state[6:], action)
+        return np.concatenate([positions, velocities])
+
+    def flange_errors_mm(self, states: np.ndarray) -> np.ndarray:
+        """Distance of the flange from the circle's point at each sample ``[T+1]`` (mm)."""
+        reached = np.array([flange_position(q) for q in states[:, :6]])
+        points = self.reference.points[: states.shape[0]]
+        return 1000.0 * np.linalg.norm(reached - points, axis=-1)
+
+    def evaluate(self, trajectory: Trajectory) -> dict[str, float]:
+        """Fig. 2.12's metrics: mean ± std and max flange error (mm); success when the mean
+        is at most ``success_error_mm``."""
+        errors = self.flange_errors_mm(trajectory.states)
+        return {
+            "mean_error_mm": float(errors.mean()),
+            "std_error_mm": float(errors.std()),
+            "max_error_mm": float(errors.max()),
+            "success": bool(errors.mean() <= self.success_error_mm),
+        }
+
+
+class PDExploration:
+    """τ = K_P (q_ref − q) + K_D (q̇_ref − q̇) on the measurement, clipped to ±u_max — the
+    thesis's "poorly tuned" PD exploration of the UR5 (gains are per joint or one for all).
+
+    Args:
+        u_max: torque bound. action_dim: 6. rng: unused (deterministic controller).
+        reference: the joint reference (``states [T+1, 12]``).
+        kp: N m/rad. kd: N m s/rad.
+    """
+
+    def __init__(
+        self,
+        u_max: float,
+        action_dim: int,
+        rng: np.random.Generator,
+        reference: CircleReference,
+        kp: float | Sequence[float] = 1.0,
+        kd: float | Sequence[float] = 0.1,
+    ) -> None:
+        self.u_max, self.reference = u_max, reference
+        self.kp = np.broadcast_to(np.asarray(kp, dtype=np.float64), (action_dim,))
+        self.kd = np.broadcast_to(np.asarray(kd, dtype=np.float64), (action_dim,))
+
+    def __call__(self, measurement: np.ndarray, step: int) -> np.ndarray:
+        target = self.reference.states[min(step, self.reference.states.shape[0] - 1)]
+        error = target - measurement
+        torque = self.kp * error[:6] + self.kd * error[6:]
+        return np.clip(torque, -self.u_max, self.u_max)

@@ -1,0 +1,87 @@
+"""UR5 tracking task: the circle reference by IK, the PD exploration, the error metrics."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mcpilco.errors import ConfigError
+from mcpilco.systems.ur5 import (
+    UR5,
+    CircleReference,
+    PDExploration,
+    flange_position,
+    position_jacobian,
+)
+from mcpilco.trajectory import Trajectory
+
+
+@pytest.fixture(scope="module")
+def ur5() -> UR5:
+    return UR5()
+
+
+def test_reference_joints_put_the_flange_on_the_circle(ur5: UR5) -> None:
+    reference = ur5.reference
+    assert reference.positions.shape == (ur5.num_steps + 1, 6)
+    reached = np.array([flange_position(q) for q in reference.positions])
+    np.testing.assert_allclose(reached, reference.points, atol=1e-8)
+    centre = np.array([-0.5, -0.1, 0.3])
+    np.testing.assert_allclose(reached[:, 2], 0.3, atol=1e-8)  # a horizontal circle
+    np.testing.assert_allclose(np.linalg.norm(reached - centre, axis=-1), 0.1, atol=1e-8)
+    assert np.abs(np.diff(reference.positions, axis=0)).max() < 0.05  # no IK branch jumps
+
+
+def test_reference_velocities_move_the_flange_along_the_circle(ur5: UR5) -> None:
+    """J(q_ref) q̇_ref equals the circle's analytic velocity 2πr/T (−sin, cos, 0)."""
+    reference = ur5.reference
+    angles = 2 * np.pi * np.arange(ur5.num_steps + 1) * ur5.dt / ur5.trial_duration
+    speed = 2 * np.pi * 0.1 / ur5.trial_duration
+    expected = speed * np.stack([-np.sin(angles), np.cos(angles), 0 * angles], axis=-1)
+    flange = np.array(
+        [
+            position_jacobian(q) @ v
+            for q, v in zip(reference.positions, reference.velocities, strict=True)
+        ]
+    )
+    np.testing.assert_allclose(flange, expected, atol=1e-3 * speed)
+
+
+def test_perfect_tracking_has_zero_error_and_succeeds(ur5: UR5) -> None:
+    states = ur5.reference.states
+    actions = np.zeros((ur5.num_steps, 6))
+    metrics = ur5.evaluate(Trajectory(states, states, actions, ur5.dt))
+    assert metrics["mean_error_mm"] < 1e-5 and metrics["max_error_mm"] < 1e-5
+    assert metrics["success"]
+    shifted = states.copy()
+    shifted[:, 0] += 0.01  # base joint off by 10 mrad: the flange ~5 mm off the circle
+    metrics = ur5.evaluate(Trajectory(shifted, shifted, actions, ur5.dt))
+    radius = np.linalg.norm(ur5.reference.points[:, :2], axis=-1)  # from the base axis
+    np.testing.assert_allclose(metrics["mean_error_mm"], 10 * radius.mean(), rtol=1e-3)
+    assert not metrics["success"]
+
+
+def test_compensated_arm_at_rest_stays_at_rest(ur5: UR5) -> None:
+    state = ur5.reference.states[0].copy()
+    state[6:] = 0.0
+    after = state
+    for _ in range(25):
+        after = ur5.step(after, np.zeros(6))
+    np.testing.assert_allclose(after, state, atol=1e-12)
+
+
+def test_poorly_tuned_pd_explores_far_from_the_circle_and_gains_help(ur5: UR5) -> None:
+    rng = np.random.default_rng(0)
+    errors = {}
+    for gains in ((1.0, 0.1), (20.0, 2.0)):
+        controller = PDExploration(ur5.u_max, 6, rng, ur5.reference, *gains)
+        trajectory = ur5.rollout(controller, ur5.sample_initial_state(rng), ur5.num_steps, rng)
+        assert np.all(np.abs(trajectory.actions) <= ur5.u_max)
+        errors[gains] = ur5.evaluate(trajectory)["mean_error_mm"]
+    assert errors[1.0, 0.1] > 50.0  # the thesis's exploration: 141 mm mean
+    assert errors[20.0, 2.0] < errors[1.0, 0.1]
+
+
+def test_circle_out_of_reach_is_a_config_error() -> None:
+    with pytest.raises(ConfigError, match="out of the UR5's reach"):
+        CircleReference((3.0, 0.0, 0.3), 0.1, duration=1.0, dt=0.1)
