@@ -138,10 +138,10 @@ class BallAndPlate(OdeSystem):
         """The motors (coordinates 2, 3) turn by the commanded increment at u/T_s."""
         if any(k not in self.known_coordinates for k in coordinates):
             raise ValueError(f"coordinates {list(coordinates)} are not all known (2, 3)")
-        motors = [k - 2 for k in coordinates]
-        increments = actions[..., motors]
-        positions = states[..., [4 + m for m in motors]] + increments
-        return positions, increments / self.dt
+        motor_actions = [self.known_coordinates.index(k) for k in coordinates]  # u1, u2
+        increments = actions[..., motor_actions]
+        angles = states[..., [self.position_indices[k] for k in coordinates]]
+        return angles + increments, increments / self.dt
 
     def on_plate(self, states: np.ndarray) -> np.ndarray:
         """Whether the ball ``[..., 8]`` is clear of the border (bool ``[...]``)."""
