@@ -102,8 +102,9 @@ class TrialLoop:
         for observer in self.observers:
             observer.run_started(self.metadata, first - 1)
         if first == 0:
+            start = time.perf_counter()
             exploration = self._interact(self.c.exploration(rng=self.streams.system))
-            table = self._record(0, exploration, {})
+            table = self._record(0, exploration, {"rollout_seconds": time.perf_counter() - start})
             if on_trial is not None:
                 on_trial(table.iloc[-1].to_dict())
             first = 1
@@ -125,11 +126,15 @@ class TrialLoop:
                 "signal": result.signals,
             }
             self.storage.save_optimization_trace(trial, trace)
+            start = time.perf_counter()
             for observer in self.observers:
                 observer.optimized(trial, trace)
             self._report_particles(trial)
+            logging_seconds = time.perf_counter() - start
+            start = time.perf_counter()
             controller = PolicyController(self.c.policy, self.c.model, self.c.estimator)
             trajectory = self._interact(controller)
+            rollout_seconds = time.perf_counter() - start
             self.storage.save_checkpoint(trial, "policy", self.c.policy.state_dict())
             assert self.c.model.gp is not None
             self.storage.save_checkpoint(trial, "model", self.c.model.gp.state_dict())
@@ -142,6 +147,8 @@ class TrialLoop:
                 "optimization_seconds": optimization_seconds,
                 "final_particle_cost": result.costs[-1] if result.costs else float("nan"),
                 "policy_restarts": result.restarts,
+                "rollout_seconds": rollout_seconds,
+                "logging_seconds": logging_seconds,
             }
             table = self._record(trial, trajectory, row)
             if on_trial is not None:
@@ -199,7 +206,10 @@ class TrialLoop:
         return trajectory
 
     def _record(self, trial: int, trajectory: Trajectory, extra: dict[str, Any]) -> pd.DataFrame:
+        """Store trial ``trial``'s rollout and summary row (``extra`` added to it); the row's
+        ``logging_seconds`` includes the observers' time spent on the rollout here."""
         self.storage.save_trajectory(trial, trajectory)
+        start = time.perf_counter()
         if self.observers:
             like = next(self.c.policy.parameters())
             with torch.no_grad():
@@ -209,6 +219,7 @@ class TrialLoop:
             for observer in self.observers:
                 observer.rollout(trial, trajectory, costs, eval_costs)
         row: dict[str, Any] = {"trial": trial, **self.c.system.evaluate(trajectory), **extra}
+        row["logging_seconds"] = row.get("logging_seconds", 0.0) + time.perf_counter() - start
         row["timestamp"] = time.time()
         self.storage.save_random_state(trial, self.streams.state())
         table = self.storage.append_summary(row)  # the row marks the trial finished

@@ -5,8 +5,9 @@ cart-pole speed-integration SE model at M=400, T=60, n_b=200:
 the median wall time over ``--steps`` steps after warm-up for n = 60 and n = 300 training
 points in float64 and float32, the rollout's achieved GFLOP/s (flops counted analytically
 from the dominant products, see :func:`rollout_flops`), the machine's own float64 matmul
-GFLOP/s measured in the same run, and the GP fit time at n = 300 against the reference
-recipe (1500 full-batch Adam steps at learning rate 0.01).
+GFLOP/s measured in the same run, the GP fit time at n = 300 against the reference
+recipe (1500 full-batch Adam steps at learning rate 0.01), and the wall time of a whole
+``protocol=quick`` cart-pole run per phase (``--skip-run`` leaves it out: it takes minutes).
 """
 
 from __future__ import annotations
@@ -197,6 +198,45 @@ def logging_overhead(
     return seconds, seconds / (steps * step_seconds)
 
 
+def whole_run(threads: int | None) -> dict[str, float]:
+    """Wall time of a complete ``protocol=quick`` cart-pole run (the real runner, MCAP
+    logging on, a temporary run directory) and its phases from the run's summary: the
+    exploration rollout, GP fits, policy optimisation, the learned policies' system
+    rollouts, logging (MCAP, including its particle prediction), and the rest (process
+    start, imports, building, storage)."""
+    import subprocess
+    import sys
+    import tempfile
+
+    import pandas as pd
+
+    with tempfile.TemporaryDirectory() as folder:
+        command = [
+            sys.executable,
+            "-m",
+            "runners.train",
+            "protocol=quick",
+            f"hydra.run.dir={folder}",
+        ]
+        if threads:
+            command.append(f"threads={threads}")
+        start = time.perf_counter()
+        subprocess.run(command, check=True, capture_output=True, cwd=Path(__file__).parent.parent)
+        wall = time.perf_counter() - start
+        summary = pd.read_csv(Path(folder) / "summary.csv")
+    learned = summary[summary["trial"] >= 1]
+    phases = {
+        "exploration": float(summary.loc[summary["trial"] == 0, "rollout_seconds"].sum()),
+        "model fit": float(learned["fit_seconds"].sum()),
+        "policy optimisation": float(learned["optimization_seconds"].sum()),
+        "system rollouts": float(learned["rollout_seconds"].sum()),
+        "logging": float(summary["logging_seconds"].sum()),
+    }
+    phases["other"] = wall - sum(phases.values())
+    phases["total"] = wall
+    return phases
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--steps", type=int, default=15, help="timed steps per setting")
@@ -204,6 +244,9 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=None, help="torch threads")
     parser.add_argument("--skip-fit", action="store_true", help="skip the GP fit comparison")
     parser.add_argument("--device", default="cpu", help="cpu | cuda | cuda:K (the step timings)")
+    parser.add_argument(
+        "--skip-run", action="store_true", help="skip the whole quick-protocol run (minutes)"
+    )
     args = parser.parse_args()
     keep_freed_memory()
     if args.threads:
@@ -236,6 +279,12 @@ def main() -> None:
             f"GP fit n=300: L-BFGS {fit['lbfgs_seconds']:.2f} s, -log p/N "
             f"{fit['lbfgs_nll_per_point']:.4f}; 1500 Adam steps lr 0.01: "
             f"{fit['adam_seconds']:.2f} s, -log p/N {fit['adam_nll_per_point']:.4f}"
+        )
+    if not args.skip_run:
+        phases = whole_run(args.threads)
+        print(  # noqa: T201
+            "whole protocol=quick cart-pole run (5 trials): "
+            + ", ".join(f"{name} {seconds:.1f} s" for name, seconds in phases.items())
         )
 
 
