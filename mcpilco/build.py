@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import inspect
 import logging
 from dataclasses import dataclass
 from functools import partial
 from typing import Any
 
+import numpy as np
 import torch
 from hydra.errors import InstantiationException
 from hydra.utils import instantiate
@@ -14,6 +16,7 @@ from omegaconf import DictConfig
 
 from mcpilco.errors import ConfigError
 from mcpilco.seeding import RandomStreams
+from mcpilco.systems.base import MechanicalSystem
 from mcpilco.trial_loop import Components
 
 log = logging.getLogger(__name__)
@@ -72,6 +75,22 @@ def make(node: Any, **kwargs: Any) -> Any:
         raise cause from None
 
 
+def with_system(made: Any, system: MechanicalSystem) -> Any:
+    """A component whose config is a ``_partial_`` (it needs the built system, e.g. a
+    tracking cost's reference) completed with ``system=``; anything else as it is."""
+    return made(system=system) if isinstance(made, partial) else made
+
+
+def exploration_factory(made: Any, system: MechanicalSystem) -> Any:
+    """The exploration partial with the action size bound, and the system too when the
+    controller takes one (a PD controller following the task's reference)."""
+    factory = partial(made, action_dim=system.action_dim)
+    target = made.func if isinstance(made, partial) else made
+    if "system" in inspect.signature(target).parameters:
+        factory = partial(factory, system=system)
+    return factory
+
+
 def build(cfg: DictConfig) -> Experiment:
     """Instantiate every component (all validation happens here, before any work)."""
     dtype, device = check_top_level(cfg)
@@ -82,7 +101,7 @@ def build(cfg: DictConfig) -> Experiment:
     model = make(cfg.model, system=system, kernel=make(cfg.kernel))
     model.new_gp()  # builds a kernel now, so kernel errors surface before any work
     policy = make(cfg.policy)(
-        input_dim=model.policy_input_dim,
+        input_dim=model.policy_input_size,
         action_dim=system.action_dim,
         u_max=system.u_max,
         generator=streams.policy_init,
@@ -93,10 +112,11 @@ def build(cfg: DictConfig) -> Experiment:
         system=system,
         model=model.to(dtype=dtype, device=device),
         policy=policy.to(dtype=dtype, device=device),
-        cost=make(cfg.cost).to(dtype=dtype, device=device),
+        cost=with_system(make(cfg.cost), system).to(dtype=dtype, device=device),
         estimator=estimator,
         optimizer=make(cfg.optimizer),
-        exploration=partial(make(cfg.exploration), action_dim=system.action_dim),
+        exploration=exploration_factory(make(cfg.exploration), system),
         simulate_estimator=bool(cfg.get("simulate_estimator", True)),
     )
+    components.exploration(rng=np.random.default_rng(0))  # its errors too, before any work
     return Experiment(components, streams, cfg.num_trials, dtype, device)

@@ -35,5 +35,8 @@ class PolicyController:
         reading = torch.as_tensor(measurement, dtype=self._like.dtype, device=self._like.device)
         estimate, self._memory = self.estimator.online_step(reading[None], self._memory)
         self._state = self.model.closed_loop_state(self._state, estimate, self._action)
-        self._action = self.policy(self.model.policy_inputs(self._state))
+        inputs = self.model.with_tracking_errors(
+            self.model.policy_inputs(self._state), estimate, step
+        )
+        self._action = self.policy(inputs)
         return self._action[0].cpu().numpy()

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch
 
+from mcpilco.costs import TrackingCost
 from mcpilco.errors import ConfigError
 from mcpilco.systems.ur5 import (
     UR5,
@@ -74,7 +76,7 @@ def test_poorly_tuned_pd_explores_far_from_the_circle_and_gains_help(ur5: UR5) -
     rng = np.random.default_rng(0)
     errors = {}
     for gains in ((1.0, 0.1), (20.0, 2.0)):
-        controller = PDExploration(ur5.u_max, 6, rng, ur5.reference, *gains)
+        controller = PDExploration(ur5.u_max, 6, rng, ur5, *gains)
         trajectory = ur5.rollout(controller, ur5.sample_initial_state(rng), ur5.num_steps, rng)
         assert np.all(np.abs(trajectory.actions) <= ur5.u_max)
         errors[gains] = ur5.evaluate(trajectory)["mean_error_mm"]
@@ -85,3 +87,37 @@ def test_poorly_tuned_pd_explores_far_from_the_circle_and_gains_help(ur5: UR5) -
 def test_circle_out_of_reach_is_a_config_error() -> None:
     with pytest.raises(ConfigError, match="out of the UR5's reach"):
         CircleReference((3.0, 0.0, 0.3), 0.1, duration=1.0, dt=0.1)
+
+
+def test_tracking_cost_against_its_formula(ur5: UR5) -> None:
+    cost = TrackingCost(ur5, position_scale=0.5, velocity_scale=1.0)
+    reference = torch.as_tensor(ur5.reference.states)  # [T+1, 12]
+    assert float(cost(reference).abs().max()) < 1e-15
+    offset = torch.zeros(12, dtype=torch.float64)
+    offset[0], offset[1], offset[6] = 0.3, 0.4, 2.0  # |e| = 0.5 rad, |ė| = 2 rad/s
+    particles = (reference + offset)[:, None, :].expand(-1, 3, -1)  # [T+1, M=3, 12]
+    expected = 1 - np.exp(-((0.5 / 0.5) ** 2) - (2.0 / 1.0) ** 2)
+    np.testing.assert_allclose(cost(particles).numpy(), expected, rtol=1e-12)
+    np.testing.assert_allclose(cost(particles[:10]).numpy(), expected, rtol=1e-12)  # T' < T
+
+
+def test_non_tracking_systems_refuse_tracking_pieces() -> None:
+    from mcpilco.systems import CartPole
+
+    with pytest.raises(ConfigError, match="tracking"):
+        TrackingCost(CartPole())
+    with pytest.raises(ConfigError, match="tracking"):
+        PDExploration(1.0, 1, np.random.default_rng(0), CartPole())
+
+
+def test_policy_reads_the_tracking_errors(ur5: UR5) -> None:
+    """The UR5 policy input is [q̇, sin q, cos q] and then x_ref(t) − x."""
+    from mcpilco.models.speed_integration import SpeedIntegration
+
+    model = SpeedIntegration(ur5, kernel=None, gp=None, fit=None)  # type: ignore[arg-type]
+    assert model.policy_input_dim == 18 and model.policy_input_size == 30
+    states = torch.as_tensor(ur5.reference.states[[5, 5]]) + 0.01
+    inputs = model.with_tracking_errors(model.policy_inputs(states), states, 5)
+    assert inputs.shape == (2, 30)
+    torch.testing.assert_close(inputs[:, 18:], torch.full((2, 12), -0.01, dtype=torch.float64))
+    torch.testing.assert_close(inputs[:, :18], model.policy_inputs(states))

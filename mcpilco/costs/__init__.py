@@ -2,5 +2,6 @@
 
 from mcpilco.costs.composite import CostSum, LogisticBarrier
 from mcpilco.costs.saturating import DistanceTerm, SaturatingDistance
+from mcpilco.costs.tracking import TrackingCost
 
-__all__ = ["CostSum", "DistanceTerm", "LogisticBarrier", "SaturatingDistance"]
+__all__ = ["CostSum", "DistanceTerm", "LogisticBarrier", "SaturatingDistance", "TrackingCost"]

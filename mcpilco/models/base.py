@@ -69,6 +69,12 @@ class ModelStructure(nn.Module, ABC):
         self.gp: ExactGP | None = None
         # Follows .to(dtype/device) of the module; tells where new tensors go.
         self.register_buffer("_dtype_probe", torch.zeros((), dtype=torch.float64), persistent=False)
+        reference = system.reference_states
+        self.register_buffer(
+            "_reference",
+            None if reference is None else torch.as_tensor(reference, dtype=torch.float64),
+            persistent=False,
+        )
 
     # ----------------------------------------------------------------- structure-specific
     @property
@@ -83,7 +89,24 @@ class ModelStructure(nn.Module, ABC):
 
     @property
     def policy_input_dim(self) -> int:
+        """Size of :meth:`policy_inputs` (before tracking errors)."""
         return self.features.dim
+
+    @property
+    def policy_input_size(self) -> int:
+        """What the policy reads: :meth:`policy_inputs`, plus the error to the reference
+        state (``d_x``) on a tracking task (:meth:`with_tracking_errors`)."""
+        tracking = 0 if self._reference is None else self.system.state_dim
+        return self.policy_input_dim + tracking
+
+    def with_tracking_errors(
+        self, inputs: torch.Tensor, states: torch.Tensor, step: int
+    ) -> torch.Tensor:
+        """Policy inputs ``[M, d_π]`` extended by x_ref(step) − x for states ``[M, d_x]`` on a
+        tracking task (thesis §2.6.3: the UR5 policy reads e and ė); unchanged otherwise."""
+        if self._reference is None:
+            return inputs
+        return torch.cat([inputs, self._reference[step] - states], dim=-1)
 
     def encode(self, particles: torch.Tensor) -> torch.Tensor:
         """Features of particles ``[M, S]`` that GP and policy inputs are built from

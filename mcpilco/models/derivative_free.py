@@ -54,6 +54,11 @@ class DerivativeFree(ModelStructure):
         if inputs not in INPUT_KINDS:
             raise ConfigError(f"model.inputs must be one of {list(INPUT_KINDS)}, got {inputs!r}")
         system = self.system
+        if system.reference_states is not None:
+            raise ConfigError(
+                f"model=derivative_free does not support tracking tasks such as "
+                f"{type(system).__name__}'s (its policy reads no tracking error yet)"
+            )
         positions = list(system.position_indices)
         missing = [i for i in positions if i not in system.sensors.measured]
         if missing:

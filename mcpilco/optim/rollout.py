@@ -122,6 +122,7 @@ class ParticleRollout:
                 # the policy and the GP input.
                 encoded = self.model.encode(particles)
                 policy_inputs = self.model.policy_inputs_from_encoded(encoded)
+                policy_inputs = self.model.with_tracking_errors(policy_inputs, states[-1], t)
             else:
                 assert self.sensors is not None
                 gaussian, uniform = readings
@@ -131,6 +132,7 @@ class ParticleRollout:
                 estimate, memory = self.estimator.online_step(reading, memory)
                 seen = self.model.closed_loop_state(seen, estimate, actions)
                 encoded, policy_inputs = None, self.model.policy_inputs(seen)
+                policy_inputs = self.model.with_tracking_errors(policy_inputs, estimate, t)
             actions = act(policy_inputs, None if bits is None else bits[t], dropout)
             particles = self.model.step(particles, actions, noise[t], encoded)
             states.append(self.model.physical_state(particles))

@@ -6,6 +6,7 @@ from mcpilco.systems.cartpole import CartPole
 from mcpilco.systems.cartpole_mujoco import CartPoleMujoco
 from mcpilco.systems.furuta import FurutaPendulum
 from mcpilco.systems.sensors import Sensors
+from mcpilco.systems.ur5 import UR5
 
 __all__ = [
     "BallAndPlate",
@@ -16,4 +17,5 @@ __all__ = [
     "MechanicalSystem",
     "OdeSystem",
     "Sensors",
+    "UR5",
 ]

@@ -56,6 +56,10 @@ class MechanicalSystem(ABC):
     action_dim: int = 1
     state_names: tuple[str, ...] = ()
     """Labels of the state components with units, for plots (``x0``, ``x1``, ... if empty)."""
+    reference_states: np.ndarray | None = None
+    """For tracking tasks: the state the system should be in at each sample, ``[T+1, d_x]``
+    (policies then also read the error to it, tracking costs compare with it); None for
+    tasks with a fixed target."""
     known_coordinates: tuple[int, ...] = ()
     """Coordinates k (positions ``position_indices[k]`` and their velocities) whose next
     values the system knows exactly from state and action (see :meth:`known_transition`)."""

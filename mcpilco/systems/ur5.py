@@ -158,6 +158,11 @@ class UR5(MechanicalSystem):
         self.simulation = MujocoSimulation(xml, dt, timestep=timestep)
         self.success_error_mm = success_error_mm
 
+    @property
+    def reference_states(self) -> np.ndarray:  # type: ignore[override]
+        """``[q_ref, q̇_ref]`` per sample ``[T+1, 12]``: a tracking task."""
+        return self.reference.states
+
     def step(self, state: np.ndarray, action: np.ndarray) -> np.ndarray:
         positions, velocities = self.simulation.step(state[:6], state[6:], action)
         return np.concatenate([positions, velocities])
@@ -185,8 +190,9 @@ class PDExploration:
     thesis's "poorly tuned" PD exploration of the UR5 (gains are per joint or one for all).
 
     Args:
-        u_max: torque bound. action_dim: 6. rng: unused (deterministic controller).
-        reference: the joint reference (``states [T+1, 12]``).
+        u_max: torque bound. action_dim: number of joints. rng: unused (deterministic).
+        system: a tracking task with full-state readings ``[q, q̇]`` (its
+            ``reference_states`` ``[T+1, 2 d_u]``).
         kp: N m/rad. kd: N m s/rad.
     """
 
@@ -195,16 +201,19 @@ class PDExploration:
         u_max: float,
         action_dim: int,
         rng: np.random.Generator,
-        reference: CircleReference,
+        system: MechanicalSystem,
         kp: float | Sequence[float] = 1.0,
         kd: float | Sequence[float] = 0.1,
     ) -> None:
-        self.u_max, self.reference = u_max, reference
+        if system.reference_states is None:
+            raise ConfigError(f"exploration=pd needs a tracking task, not {type(system).__name__}")
+        self.u_max, self.reference = u_max, np.asarray(system.reference_states)
         self.kp = np.broadcast_to(np.asarray(kp, dtype=np.float64), (action_dim,))
         self.kd = np.broadcast_to(np.asarray(kd, dtype=np.float64), (action_dim,))
 
     def __call__(self, measurement: np.ndarray, step: int) -> np.ndarray:
-        target = self.reference.states[min(step, self.reference.states.shape[0] - 1)]
+        target = self.reference[min(step, self.reference.shape[0] - 1)]
         error = target - measurement
-        torque = self.kp * error[:6] + self.kd * error[6:]
+        joints = self.kp.shape[0]
+        torque = self.kp * error[:joints] + self.kd * error[joints:]
         return np.clip(torque, -self.u_max, self.u_max)
