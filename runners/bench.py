@@ -80,12 +80,23 @@ def synchronize(device: str) -> None:
         torch.cuda.synchronize(device)
 
 
+CARTPOLE = ("kernel=se", "model=speed_integration")
+"""The cart-pole setting of the step figures (M 400, T 60, n_b 200)."""
+UR5 = ("+experiment=ur5", "model.reduction_threshold=null")
+"""The UR5 setting (thesis §2.6.3: M 200, T 200, n_b 400, 6 GP outputs, SE + linear)."""
+
+
 def time_steps(
-    dtype: str, n: int, steps: int, warmup: int, device: str = "cpu"
+    dtype: str,
+    n: int,
+    steps: int,
+    warmup: int,
+    device: str = "cpu",
+    setting: tuple[str, ...] = CARTPOLE,
 ) -> tuple[float, float, float]:
     """Median seconds per optimisation step, achieved GFLOP/s, and the seconds of one
     gradient-free rollout (what the loggers' particle prediction costs)."""
-    overrides = [f"dtype={dtype}", "kernel=se", "model=speed_integration", f"device={device}"]
+    overrides = [f"dtype={dtype}", *setting, f"device={device}"]
     with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
         cfg = compose("train", overrides=overrides)
     experiment = build(cfg)
@@ -124,15 +135,15 @@ def time_steps(
         c.model.num_outputs,
         c.model.gp_input_dim,
         c.policy.num_basis,
-        c.model.policy_input_dim,
+        c.model.policy_input_size,
     )
     return median, flops / median / 1e9, prediction
 
 
-def fit_comparison(n: int = 300) -> dict[str, float]:
+def fit_comparison(n: int = 300, setting: tuple[str, ...] = CARTPOLE) -> dict[str, float]:
     """Our L-BFGS fit against 1500 full-batch Adam steps at lr 0.01 (reference recipe)."""
     with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
-        cfg = compose("train", overrides=["kernel=se", "model=speed_integration"])
+        cfg = compose("train", overrides=list(setting))
     experiment = build(cfg)
     model = experiment.components.model
     states, actions = exploration_data(experiment, n)
@@ -237,6 +248,14 @@ def whole_run(threads: int | None) -> dict[str, float]:
     return phases
 
 
+def print_fit(label: str, fit: dict[str, float]) -> None:
+    print(  # noqa: T201
+        f"{label}: L-BFGS {fit['lbfgs_seconds']:.2f} s, -log p/N "
+        f"{fit['lbfgs_nll_per_point']:.4f}; 1500 Adam steps lr 0.01: "
+        f"{fit['adam_seconds']:.2f} s, -log p/N {fit['adam_nll_per_point']:.4f}"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--steps", type=int, default=15, help="timed steps per setting")
@@ -247,6 +266,7 @@ def main() -> None:
     parser.add_argument(
         "--skip-run", action="store_true", help="skip the whole quick-protocol run (minutes)"
     )
+    parser.add_argument("--skip-ur5", action="store_true", help="skip the UR5 step and fit")
     args = parser.parse_args()
     keep_freed_memory()
     if args.threads:
@@ -274,12 +294,17 @@ def main() -> None:
         f"{100 * fraction:.2f}% of its optimisation time at n=60 float64"
     )
     if not args.skip_fit:
-        fit = fit_comparison()
-        print(  # noqa: T201
-            f"GP fit n=300: L-BFGS {fit['lbfgs_seconds']:.2f} s, -log p/N "
-            f"{fit['lbfgs_nll_per_point']:.4f}; 1500 Adam steps lr 0.01: "
-            f"{fit['adam_seconds']:.2f} s, -log p/N {fit['adam_nll_per_point']:.4f}"
-        )
+        print_fit("GP fit n=300", fit_comparison())
+    if not args.skip_ur5:
+        print("UR5 step, M=200 T=200 n_b=400, speed-integration SE+linear, 6 GPs:")  # noqa: T201
+        for dtype in ("float64", "float32"):
+            seconds, gflops, _ = time_steps(dtype, 400, 3, 1, args.device, UR5)
+            print(  # noqa: T201
+                f"  n=400 {dtype}: median {seconds * 1e3:7.1f} ms/step over 3 steps, "
+                f"rollout {gflops:5.2f} GFLOP/s"
+            )
+        if not args.skip_fit:
+            print_fit("UR5 GP fit n=400", fit_comparison(400, UR5))
     if not args.skip_run:
         phases = whole_run(args.threads)
         print(  # noqa: T201
