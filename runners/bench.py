@@ -23,6 +23,7 @@ import torch
 from hydra import compose, initialize_config_dir
 
 from mcpilco.build import build
+from mcpilco.errors import NotPositiveDefiniteError
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
 from runners.process import keep_freed_memory
@@ -298,7 +299,11 @@ def main() -> None:
     if not args.skip_ur5:
         print("UR5 step, M=200 T=200 n_b=400, speed-integration SE+linear, 6 GPs:")  # noqa: T201
         for dtype in ("float64", "float32"):
-            seconds, gflops, _ = time_steps(dtype, 400, 3, 1, args.device, UR5)
+            try:
+                seconds, gflops, _ = time_steps(dtype, 400, 3, 1, args.device, UR5)
+            except NotPositiveDefiniteError as error:  # measured: float32 UR5 fits can fail
+                print(f"  n=400 {dtype}: no GP fit ({error})")  # noqa: T201
+                continue
             print(  # noqa: T201
                 f"  n=400 {dtype}: median {seconds * 1e3:7.1f} ms/step over 3 steps, "
                 f"rollout {gflops:5.2f} GFLOP/s"
