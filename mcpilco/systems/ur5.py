@@ -3,6 +3,7 @@ turned into a joint reference by inverse kinematics, and the poorly tuned PD exp
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 
 import numpy as np
@@ -58,6 +59,20 @@ def inverse_kinematics(
     return q
 
 
+@functools.lru_cache(maxsize=16)
+def _solve_path(points: tuple[tuple[float, ...], ...], nominal: tuple[float, ...]) -> np.ndarray:
+    """IK of every point along a path, each solve starting from the previous solution;
+    ``[len(points), 6]``, read-only (cached: every build of the same task reuses it)."""
+    nominal_q = np.asarray(nominal, dtype=np.float64)
+    q, positions = nominal_q, []
+    for point in points:
+        q = inverse_kinematics(np.asarray(point), q, nominal_q)
+        positions.append(q)
+    solved = np.array(positions)
+    solved.setflags(write=False)
+    return solved
+
+
 class CircleReference:
     """The flange drawing a circle in a horizontal (X-Y) plane once per trial, and its
     joint-space reference by inverse kinematics.
@@ -85,12 +100,9 @@ class CircleReference:
         self.points = self.centre + radius * np.stack(
             [np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=-1
         )  # [T+1, 3]
-        nominal_q = np.asarray(nominal, dtype=np.float64)
-        q, positions = nominal_q, []
-        for point in self.points:
-            q = inverse_kinematics(point, q, nominal_q)
-            positions.append(q)
-        self.positions = np.array(positions)  # [T+1, 6]
+        self.positions = _solve_path(
+            tuple(map(tuple, self.points.tolist())), tuple(float(x) for x in nominal)
+        )  # [T+1, 6], read-only
         # central differences inside, second-order one-sided ones at the ends (the joints
         # need not close the loop exactly: the arm is redundant for a position task)
         self.velocities = np.gradient(self.positions, dt, axis=0, edge_order=2)  # [T+1, 6]
