@@ -36,7 +36,12 @@ from omegaconf import OmegaConf  # noqa: E402
 
 from analysis.prediction_errors import prediction_error_figure, prediction_errors  # noqa: E402
 from analysis.swing_up import ReferenceCost, reference_costs  # noqa: E402
-from analysis.thesis import PRECISION, SUCCESS_RATES, configuration_label  # noqa: E402
+from analysis.thesis import (  # noqa: E402
+    PRECISION,
+    SUCCESS_RATES,
+    configuration_label,
+    thesis_label,
+)
 
 
 def wilson_interval(successes: int, total: int, z: float = 1.959964) -> tuple[float, float]:
@@ -80,7 +85,7 @@ def success_rates(trials: pd.DataFrame) -> pd.DataFrame:
     for (configuration, trial), group in learned.groupby(["configuration", "trial"]):
         successes, total = int(group["success"].sum()), len(group)
         low, high = wilson_interval(successes, total)
-        published = SUCCESS_RATES.get(str(configuration))
+        published = SUCCESS_RATES.get(thesis_label(str(configuration)))
         thesis = published[int(trial) - 1] if published and trial <= len(published) else None
         records.append(
             {
@@ -118,7 +123,7 @@ def precision(trials: pd.DataFrame) -> pd.DataFrame:
     for configuration, group in trials.groupby("configuration"):
         last = group[group["trial"] == group["trial"].max()]
         good = last[last["success"]]
-        published = PRECISION.get(str(configuration))
+        published = PRECISION.get(thesis_label(str(configuration)))
         records.append(
             {
                 "configuration": configuration,

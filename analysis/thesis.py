@@ -53,9 +53,30 @@ def _number(value: float) -> str:
     return f"{value:g}"
 
 
+CART_POLES = {"CartPole", "CartPoleMujoco"}
+"""Systems the published numbers are about (the thesis's cart-pole, either backend)."""
+
+
 def configuration_label(config: dict[str, Any]) -> str:
     """Thesis-style name of a run's configuration (everything but the seed that matters
-    for the published tables): model structure, kernel, dropout, cost length-scales."""
+    for the published tables): model structure, kernel, dropout, cost length-scales; other
+    systems than the cart-pole are named in front, a protocol other than ``paper`` behind
+    (``[quick]``), so that runs of different studies never share a row."""
+    system = str(config["system"]["_target_"]).rsplit(".", 1)[-1]
+    protocol = (config.get("protocol") or {}).get("name", "paper")
+    label = _configuration(config)
+    if system not in CART_POLES:
+        label = f"{system}: {label}"
+    return label if protocol == "paper" else f"{label} [{protocol}]"
+
+
+def thesis_label(label: str) -> str:
+    """The published row a configuration label is compared with: the protocol tag removed
+    (a quick study is shown beside the paper's numbers for the same configuration)."""
+    return label.split(" [", 1)[0]
+
+
+def _configuration(config: dict[str, Any]) -> str:
     model = config["model"]
     target = str(model["_target_"]).rsplit(".", 1)[-1]
     name = MODEL_NAMES.get(target, target)

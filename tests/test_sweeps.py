@@ -131,7 +131,7 @@ def test_configuration_labels_name_the_thesis_rows() -> None:
     from hydra import compose, initialize_config_dir
     from omegaconf import OmegaConf
 
-    from analysis.thesis import SUCCESS_RATES, configuration_label
+    from analysis.thesis import SUCCESS_RATES, configuration_label, thesis_label
 
     cases = {
         (): "S.I., SE, dropout, l=(3,1)",
@@ -143,6 +143,8 @@ def test_configuration_labels_name_the_thesis_rows() -> None:
         ): "S.I., SE, no dropout, l=(0.75,0.25)",
         ("+experiment=cartpole_df",): "DF m_q=2 m_u=1, SE, dropout, l=(3,1)",
         ("+experiment=cartpole_pms",): "PMS S.I., SE, dropout, l=(3,1)",
+        ("protocol=quick", "kernel=sp"): "S.I., PI+SE, dropout, l=(3,1) [quick]",
+        ("+experiment=furuta_pms",): "FurutaPendulum: PMS S.I., SE, dropout, l=()",
     }
     for overrides, label in cases.items():
         with initialize_config_dir(version_base="1.3", config_dir=str(ROOT / "conf")):
@@ -150,6 +152,7 @@ def test_configuration_labels_name_the_thesis_rows() -> None:
         config = OmegaConf.to_container(cfg, resolve=True)
         assert configuration_label(config) == label  # type: ignore[arg-type]
     assert "S.I., SE, dropout, l=(3,1)" in SUCCESS_RATES
+    assert thesis_label("S.I., PI+SE, dropout, l=(3,1) [quick]") in SUCCESS_RATES
 
 
 def test_pole_swings_counts_velocity_reversals_before_upright() -> None:
