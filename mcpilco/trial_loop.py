@@ -43,6 +43,8 @@ class Components:
     optimizer: PolicyOptimizer
     exploration: ExplorationFactory
     simulate_estimator: bool = True
+    compile: bool = False
+    """torch.compile the particle step (see :class:`ParticleRollout`)."""
 
 
 class TrialLoop:
@@ -72,7 +74,7 @@ class TrialLoop:
         self.num_trials = num_trials
         c = components
         self.rollout = ParticleRollout.for_system(
-            c.system, c.model, c.policy, c.cost, c.estimator, c.simulate_estimator
+            c.system, c.model, c.policy, c.cost, c.estimator, c.simulate_estimator, c.compile
         )
         self.trajectories: list[Trajectory] = []
 

@@ -16,6 +16,7 @@ import argparse
 import logging
 import statistics
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -88,6 +89,18 @@ UR5 = ("+experiment=ur5", "model.reduction_threshold=null")
 """The UR5 setting (thesis §2.6.3: M 200, T 200, n_b 400, 6 GP outputs, SE + linear)."""
 
 
+@dataclass(frozen=True)
+class StepTiming:
+    """Median seconds per optimisation step, achieved GFLOP/s, seconds of one
+    gradient-free rollout (what the loggers' particle prediction costs), and seconds of
+    the warm-up steps (with ``compile``: compiling the graphs)."""
+
+    median: float
+    gflops: float
+    prediction: float
+    warmup: float
+
+
 def time_steps(
     dtype: str,
     n: int,
@@ -95,10 +108,10 @@ def time_steps(
     warmup: int,
     device: str = "cpu",
     setting: tuple[str, ...] = CARTPOLE,
-) -> tuple[float, float, float]:
-    """Median seconds per optimisation step, achieved GFLOP/s, and the seconds of one
-    gradient-free rollout (what the loggers' particle prediction costs)."""
-    overrides = [f"dtype={dtype}", *setting, f"device={device}"]
+    compile: bool = False,
+) -> StepTiming:
+    """Time ``steps`` optimisation steps after ``warmup`` untimed ones."""
+    overrides = [f"dtype={dtype}", *setting, f"device={device}", f"compile={compile}"]
     with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
         cfg = compose("train", overrides=overrides)
     experiment = build(cfg)
@@ -109,10 +122,13 @@ def time_steps(
     if c.model.gp.train_inputs.shape[0] != n:  # trim to exactly n points
         c.model.gp.set_data(c.model.gp.train_inputs[:n], c.model.gp.train_targets[:n])
         c.model.gp.precompute()
-    rollout = ParticleRollout.for_system(c.system, c.model, c.policy, c.cost, c.estimator)
+    rollout = ParticleRollout.for_system(
+        c.system, c.model, c.policy, c.cost, c.estimator, compile=compile
+    )
     optimizer = torch.optim.Adam(c.policy.parameters(), lr=0.01)
     particles = c.optimizer.num_particles
-    times = []
+    times, warmup_seconds = [], 0.0
+    started = time.perf_counter()
     with frozen(c.model):
         for step in range(warmup + steps):
             synchronize(device)
@@ -123,6 +139,8 @@ def time_steps(
             synchronize(device)
             if step >= warmup:
                 times.append(time.perf_counter() - start)
+            elif step == warmup - 1:
+                warmup_seconds = time.perf_counter() - started
     with torch.no_grad(), frozen(c.model):
         synchronize(device)
         start = time.perf_counter()
@@ -139,7 +157,7 @@ def time_steps(
         c.policy.num_basis,
         c.model.policy_input_size,
     )
-    return median, flops / median / 1e9, prediction
+    return StepTiming(median, flops / median / 1e9, prediction, warmup_seconds)
 
 
 def fit_comparison(n: int = 300, setting: tuple[str, ...] = CARTPOLE) -> dict[str, float]:
@@ -202,21 +220,25 @@ def main() -> None:
     print(  # noqa: T201
         f"policy-optimisation step on {args.device}, M=400 T=60 n_b=200, speed-integration SE:"
     )
-    step_times, prediction = {}, 0.0
+    timings = {}
     for n in (60, 300):
         for dtype in ("float64", "float32"):
-            seconds, gflops, predict = time_steps(dtype, n, args.steps, args.warmup, args.device)
-            step_times[n, dtype] = seconds
-            prediction = predict if (n, dtype) == (60, "float64") else prediction
-            print(  # noqa: T201
-                f"  n={n:3d} {dtype}: median {seconds * 1e3:7.1f} ms/step over {args.steps} "
-                f"steps, rollout {gflops:5.2f} GFLOP/s"
-            )
+            for compiled in (False, True):
+                timing = time_steps(
+                    dtype, n, args.steps, args.warmup, args.device, compile=compiled
+                )
+                timings[n, dtype, compiled] = timing
+                mode = f"compiled (warm-up {timing.warmup:4.1f} s)" if compiled else "eager"
+                print(  # noqa: T201
+                    f"  n={n:3d} {dtype}: median {timing.median * 1e3:7.1f} ms/step over "
+                    f"{args.steps} steps, rollout {timing.gflops:5.2f} GFLOP/s, {mode}"
+                )
     print(f"machine float64 matmul (again): {matmul_gflops():.1f} GFLOP/s")  # noqa: T201
-    overhead, fraction = logging_overhead(step_times[60, "float64"], prediction)
+    reference = timings[60, "float64", True]
+    overhead, fraction = logging_overhead(reference.median, reference.prediction)
     print(  # noqa: T201
         f"logging (MCAP + Rerun) per trial of 1500 steps: {overhead:.2f} s = "
-        f"{100 * fraction:.2f}% of its optimisation time at n=60 float64"
+        f"{100 * fraction:.2f}% of its optimisation time at n=60 float64 compiled"
     )
     if not args.skip_fit:
         print_fit("GP fit n=300", fit_comparison())
@@ -224,13 +246,13 @@ def main() -> None:
         print("UR5 step, M=200 T=200 n_b=400, speed-integration SE+linear, 6 GPs:")  # noqa: T201
         for dtype in ("float64", "float32"):
             try:
-                seconds, gflops, _ = time_steps(dtype, 400, 3, 1, args.device, UR5)
+                timing = time_steps(dtype, 400, 3, 1, args.device, UR5, compile=True)
             except NotPositiveDefiniteError as error:  # measured: float32 UR5 fits can fail
                 print(f"  n=400 {dtype}: no GP fit ({error})")  # noqa: T201
                 continue
             print(  # noqa: T201
-                f"  n=400 {dtype}: median {seconds * 1e3:7.1f} ms/step over 3 steps, "
-                f"rollout {gflops:5.2f} GFLOP/s"
+                f"  n=400 {dtype}: median {timing.median * 1e3:7.1f} ms/step over 3 steps, "
+                f"rollout {timing.gflops:5.2f} GFLOP/s, compiled"
             )
         if not args.skip_fit:
             print_fit("UR5 GP fit n=400", fit_comparison(400, UR5))

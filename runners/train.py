@@ -27,7 +27,7 @@ CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.train")
 
 
-MACHINE_KEYS = ("num_trials", "threads", "device", "resume", "overwrite")
+MACHINE_KEYS = ("num_trials", "threads", "device", "resume", "overwrite", "compile")
 
 
 def check_same_run(cfg: DictConfig, run_dir: Path) -> None:
@@ -54,7 +54,7 @@ def resolve_resume(cfg: DictConfig) -> tuple[DictConfig, Path]:
     """The config and directory to run in: Hydra's, or those of the run to resume.
 
     A resumed run keeps its saved config; only ``num_trials`` (to extend the run) and
-    ``threads``/``device`` (the machine) are taken from the command line.
+    ``threads``/``device``/``compile`` (the machine) are taken from the command line.
     """
     if cfg.get("resume") is None:
         return cfg, Path(HydraConfig.get().runtime.output_dir)
@@ -63,8 +63,8 @@ def resolve_resume(cfg: DictConfig) -> tuple[DictConfig, Path]:
         raise ConfigError(f"resume={cfg.resume!r} holds no config.yaml")
     saved = OmegaConf.load(run_dir / "config.yaml")
     assert isinstance(saved, DictConfig)
-    for key in ("num_trials", "threads", "device"):
-        saved[key] = cfg[key]
+    for key in ("num_trials", "threads", "device", "compile"):
+        saved[key] = cfg.get(key)
     saved.resume = str(run_dir)
     return saved, run_dir
 

@@ -23,6 +23,7 @@ ROOT = Path(__file__).resolve().parent.parent
 TINY = [
     "num_trials=2",
     "threads=1",
+    "compile=false",  # the compiled step has its own tests (tests/test_compiled_step.py)
     "optimizer.num_particles=8",
     "optimizer.max_steps=4",
     "optimizer.max_steps_first_trial=4",
@@ -49,7 +50,8 @@ def run_train(*overrides: str) -> subprocess.CompletedProcess[str]:
 @pytest.mark.parametrize("kernel", ["sp"])
 def test_smoke_run_finishes_in_under_a_minute(tmp_path: Path, kernel: str) -> None:
     start = time.perf_counter()
-    result = run_train(*TINY, f"kernel={kernel}", f"hydra.run.dir={tmp_path}")
+    default_compile = [o for o in TINY if not o.startswith("compile=")]  # as users run it
+    result = run_train(*default_compile, f"kernel={kernel}", f"hydra.run.dir={tmp_path}")
     elapsed = time.perf_counter() - start
     assert result.returncode == 0, result.stderr[-2000:]
     assert elapsed < 60

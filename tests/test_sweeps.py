@@ -17,6 +17,7 @@ TINY_SWEEP = [
     "--multirun",
     "num_trials=1",
     "threads=1",
+    "compile=false",
     "optimizer.num_particles=8",
     "optimizer.max_steps=3",
     "optimizer.max_steps_first_trial=3",

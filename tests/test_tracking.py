@@ -21,6 +21,7 @@ from mcpilco.tracking import read_run_log
 ROOT = Path(__file__).resolve().parent.parent
 TINY = [
     "threads=1",
+    "compile=false",  # the compiled step has its own tests (tests/test_compiled_step.py)
     "optimizer.num_particles=60",
     "policy.num_basis=10",
     "system.trial_duration=1.0",

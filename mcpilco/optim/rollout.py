@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import logging
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -14,6 +16,8 @@ from mcpilco.models.base import ModelStructure
 from mcpilco.policies.rbf import SquashedRBFPolicy
 from mcpilco.systems.base import MechanicalSystem
 from mcpilco.systems.sensors import Sensors
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -45,6 +49,12 @@ class ParticleRollout:
             becomes erf(z/√2), uniform on (−1, 1)).
         sensors: the system's sensors, simulated on the particles for a non-identity
             estimator (None: the policy sees the particle itself).
+        compile: run the per-step work of a policy that sees the particle itself (encode,
+            act, GP sample, transition, and their backward) through ``torch.compile``:
+            one fused graph instead of ~200 small ops per step. Compiles a few graphs
+            (seconds each, cached on disk by PyTorch) and falls back to eager execution,
+            with a warning, where compilation fails (e.g. no C++ compiler on a CPU-only
+            machine). Results agree with eager execution to rounding.
     """
 
     def __init__(
@@ -58,8 +68,12 @@ class ParticleRollout:
         horizon: int,
         sensors: Sensors | None = None,
         initial_uniform: bool = False,
+        compile: bool = False,
     ) -> None:
         self.initial_uniform = initial_uniform
+        self._compiled_step: Callable[..., torch.Tensor] | None = (
+            torch.compile(self._state_step) if compile else None
+        )
         self.sensors = sensors
         self.model = model
         self.policy = policy
@@ -78,10 +92,12 @@ class ParticleRollout:
         cost: nn.Module,
         estimator: StateEstimator,
         simulate_estimator: bool = True,
+        compile: bool = False,
     ) -> ParticleRollout:
         """A rollout from the system's p(x0) over one trial, in the policy's dtype/device;
         with ``simulate_estimator`` false the policy sees the particles instead of online
-        estimates of their simulated readings (MC-PILCO instead of MC-PILCO4PMS)."""
+        estimates of their simulated readings (MC-PILCO instead of MC-PILCO4PMS);
+        ``compile``: see the class."""
         like = next(policy.parameters())
         return cls(
             model=model,
@@ -93,6 +109,7 @@ class ParticleRollout:
             horizon=system.num_steps,
             sensors=system.sensors if simulate_estimator else None,
             initial_uniform=system.initial_distribution == "uniform",
+            compile=compile,
         )
 
     def __call__(
@@ -110,7 +127,7 @@ class ParticleRollout:
             else None
         )
         readings = self._reading_noise(num_particles, generator, like)
-        act = self.policy.prepare()
+        act = self.policy.prepare(dropout)
         particles = self.model.initial_particles(self.initial_states(start))
         states = [self.model.physical_state(particles)]
         memory = self.estimator.online_reset(num_particles, particles)
@@ -118,11 +135,7 @@ class ParticleRollout:
         actions: torch.Tensor | None = None
         for t in range(self.horizon):
             if readings is None:
-                # The policy sees the particle itself: encode its features once for both
-                # the policy and the GP input.
-                encoded = self.model.encode(particles)
-                policy_inputs = self.model.policy_inputs_from_encoded(encoded)
-                policy_inputs = self.model.with_tracking_errors(policy_inputs, states[-1], t)
+                particles = self._advance(act, particles, bits, noise[t], t)
             else:
                 assert self.sensors is not None
                 gaussian, uniform = readings
@@ -131,14 +144,53 @@ class ParticleRollout:
                 )
                 estimate, memory = self.estimator.online_step(reading, memory)
                 seen = self.model.closed_loop_state(seen, estimate, actions)
-                encoded, policy_inputs = None, self.model.policy_inputs(seen)
+                policy_inputs = self.model.policy_inputs(seen)
                 policy_inputs = self.model.with_tracking_errors(policy_inputs, estimate, t)
-            actions = act(policy_inputs, None if bits is None else bits[t], dropout)
-            particles = self.model.step(particles, actions, noise[t], encoded)
+                actions = act(policy_inputs, None if bits is None else bits[t])
+                particles = self.model.step(particles, actions, noise[t])
             states.append(self.model.physical_state(particles))
         trajectory = torch.stack(states)  # [T+1, M, d_x]
         step_costs = self.cost(trajectory).mean(-1)  # [T+1]
         return RolloutResult(step_costs.sum(), step_costs, trajectory)
+
+    def _state_step(
+        self,
+        act: Callable[..., torch.Tensor],
+        particles: torch.Tensor,
+        bits: torch.Tensor | None,
+        noise: torch.Tensor,
+        step: int,
+    ) -> torch.Tensor:
+        """Next particles ``[M, S]`` when the policy sees the particle itself: its features
+        are encoded once for both the policy and the GP input. ``bits`` ``[M, n_b]`` (or
+        None), ``noise`` ``[G, M]``."""
+        encoded = self.model.encode(particles)
+        policy_inputs = self.model.policy_inputs_from_encoded(encoded)
+        policy_inputs = self.model.with_tracking_errors(
+            policy_inputs, self.model.physical_state(particles), step
+        )
+        actions = act(policy_inputs, bits)
+        return self.model.step(particles, actions, noise, encoded)
+
+    def _advance(
+        self,
+        act: Callable[..., torch.Tensor],
+        particles: torch.Tensor,
+        bits: torch.Tensor | None,
+        noise: torch.Tensor,
+        step: int,
+    ) -> torch.Tensor:
+        """:meth:`_state_step` at ``step``, compiled where asked for and possible. The first
+        step runs eagerly: its particles need no gradient, which would be one more graph."""
+        bits_now = None if bits is None else bits[step]
+        if self._compiled_step is None or step == 0:
+            return self._state_step(act, particles, bits_now, noise, step)
+        try:
+            return self._compiled_step(act, particles, bits_now, noise, step)
+        except Exception as error:  # noqa: BLE001 - any compiler failure: run eagerly
+            log.warning("torch.compile of the particle step failed (%s); running eagerly", error)
+            self._compiled_step = None
+            return self._state_step(act, particles, bits_now, noise, step)
 
     def initial_states(self, standard_normal: torch.Tensor) -> torch.Tensor:
         """Samples of p(x0) ``[M, d_x]`` from standard-normal draws ``[M, d_x]``."""
