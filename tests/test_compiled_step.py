@@ -19,11 +19,12 @@ CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 PARTICLES = 16
 
 
-def small_experiment() -> Experiment:
+def small_experiment(*overrides: str) -> Experiment:
     with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
         cfg = compose(
             "train",
             overrides=[
+                *overrides,
                 f"optimizer.num_particles={PARTICLES}",
                 "policy.num_basis=10",
                 "system.trial_duration=0.5",
@@ -43,24 +44,34 @@ def cost_and_gradient(
     return float(result.total_cost), gradient
 
 
-def test_compiled_rollout_matches_eager_through_dropout_changes_and_refits() -> None:
+@pytest.mark.parametrize(
+    "experiment",
+    [
+        [],  # the policy sees the particle (full state)
+        ["+experiment=cartpole_pms"],  # simulated readings, online low-pass estimator
+        ["+experiment=cartpole_df"],  # derivative-free: histories of readings
+    ],
+    ids=["full_state", "pms", "derivative_free"],
+)
+def test_compiled_rollout_matches_eager_through_dropout_changes_and_refits(
+    experiment: list[str],
+) -> None:
     """Same Ĵ and policy gradient as eager execution for every dropout of the schedule
     and after a refit on more data, with at most four compiled graphs (masked/unmasked ×
     fixed/dynamic data size): a fifth would hit the limit and fall back to eager."""
     torch._dynamo.reset()
-    experiment = small_experiment()
-    c = experiment.components
-    states, actions = exploration_data(experiment, 20)
+    built = small_experiment(*experiment)
+    c = built.components
+    states, actions = exploration_data(built, 20)
     c.model.fit(states, actions)
-    eager = ParticleRollout.for_system(c.system, c.model, c.policy, c.cost, c.estimator)
-    compiled = ParticleRollout.for_system(
-        c.system, c.model, c.policy, c.cost, c.estimator, compile=True
-    )
+    args = (c.system, c.model, c.policy, c.cost, c.estimator, c.simulate_estimator)
+    eager = ParticleRollout.for_system(*args)
+    compiled = ParticleRollout.for_system(*args, compile=True)
     settings = [(0.25, 0), (0.25, 1), (0.125, 0), (0.0, 0), ("refit", 0), (0.25, 2), (0.0, 2)]
     with torch._dynamo.config.patch(recompile_limit=4, fail_on_recompile_limit_hit=True):
         for dropout, seed in settings:
             if dropout == "refit":
-                states, actions = exploration_data(experiment, 40, seed=5)
+                states, actions = exploration_data(built, 40, seed=5)
                 c.model.fit(states, actions)
                 continue
             with frozen(c.model):
@@ -71,7 +82,7 @@ def test_compiled_rollout_matches_eager_through_dropout_changes_and_refits() -> 
             # mask moves Ĵ by percent).
             assert cost_compiled == pytest.approx(cost, rel=1e-7)
             torch.testing.assert_close(gradient_compiled, gradient, rtol=1e-5, atol=1e-8)
-            assert compiled._compiled_step is not None  # never fell back to eager
+            assert compiled.compile  # never fell back to eager
 
 
 def test_a_failing_compiler_falls_back_to_eager_with_a_warning(
@@ -81,17 +92,21 @@ def test_a_failing_compiler_falls_back_to_eager_with_a_warning(
     c = experiment.components
     states, actions = exploration_data(experiment, 20)
     c.model.fit(states, actions)
-    rollout = ParticleRollout.for_system(c.system, c.model, c.policy, c.cost, c.estimator)
+    rollout = ParticleRollout.for_system(
+        c.system, c.model, c.policy, c.cost, c.estimator, compile=True
+    )
+    rollout.compile = False
     with frozen(c.model):
         reference = cost_and_gradient(rollout, 0.25, 0)
 
     def broken(*args: object) -> torch.Tensor:
         raise RuntimeError("no C++ compiler")
 
-    rollout._compiled_step = broken
+    rollout.compile = True
+    rollout._compiled["_state_step"] = broken
     with caplog.at_level(logging.WARNING), frozen(c.model):
         cost, gradient = cost_and_gradient(rollout, 0.25, 0)
     assert "running eagerly" in caplog.text and "no C++ compiler" in caplog.text
-    assert rollout._compiled_step is None
+    assert not rollout.compile
     assert cost == reference[0]
     torch.testing.assert_close(gradient, reference[1], rtol=0, atol=0)

@@ -51,6 +51,8 @@ class CausalDifference(PositionBasedEstimator):
             self.b, self.a = np.array([1.0]), np.array([1.0])
         else:
             self.b, self.a = _butterworth(order, self.cutoff_hz, self.dt)
+        # the online filter's taps as Python floats (traced as constants when compiled)
+        self.taps = (tuple(map(float, self.b)), tuple(map(float, self.a)))
 
     # --------------------------------------------------------------------- offline
     def causal_velocities(self, positions: np.ndarray) -> np.ndarray:
@@ -82,14 +84,14 @@ class CausalDifference(PositionBasedEstimator):
         self, value: torch.Tensor, state: list[torch.Tensor]
     ) -> tuple[torch.Tensor, list[torch.Tensor]]:
         """One sample of the IIR filter, transposed direct form II (scipy's lfilter)."""
-        b, a = self.b, self.a
+        b, a = self.taps
         if not state:
-            return float(b[0]) * value, state
-        output = float(b[0]) * value + state[0]
+            return b[0] * value, state
+        output = b[0] * value + state[0]
         new_state = []
         for i in range(1, len(a)):
             following = state[i] if i < len(state) else 0.0
-            new_state.append(float(b[i]) * value - float(a[i]) * output + following)
+            new_state.append(b[i] * value - a[i] * output + following)
         return output, new_state
 
 

@@ -71,9 +71,8 @@ class ParticleRollout:
         compile: bool = False,
     ) -> None:
         self.initial_uniform = initial_uniform
-        self._compiled_step: Callable[..., torch.Tensor] | None = (
-            torch.compile(self._state_step) if compile else None
-        )
+        self.compile = compile
+        self._compiled: dict[str, Callable[..., Any]] = {}
         self.sensors = sensors
         self.model = model
         self.policy = policy
@@ -134,20 +133,29 @@ class ParticleRollout:
         seen: torch.Tensor | None = None  # what the policy reads (a history for DF models)
         actions: torch.Tensor | None = None
         for t in range(self.horizon):
+            bits_now = None if bits is None else bits[t]
             if readings is None:
-                particles = self._advance(act, particles, bits, noise[t], t)
-            else:
-                assert self.sensors is not None
-                gaussian, uniform = readings
-                reading = self.sensors.simulate(
-                    states[-1], gaussian[t], None if uniform is None else uniform[t]
+                # first step eager: its particles need no gradient (one graph fewer)
+                particles = self._run(
+                    self._state_step, t >= 1, act, particles, bits_now, noise[t], t
                 )
-                estimate, memory = self.estimator.online_step(reading, memory)
-                seen = self.model.closed_loop_state(seen, estimate, actions)
-                policy_inputs = self.model.policy_inputs(seen)
-                policy_inputs = self.model.with_tracking_errors(policy_inputs, estimate, t)
-                actions = act(policy_inputs, None if bits is None else bits[t])
-                particles = self.model.step(particles, actions, noise[t])
+            else:
+                gaussian, uniform = readings
+                # first two steps eager: no history yet, then one without gradients
+                particles, memory, seen, actions = self._run(
+                    self._reading_step,
+                    t >= 2,
+                    act,
+                    particles,
+                    memory,
+                    seen,
+                    actions,
+                    gaussian[t],
+                    None if uniform is None else uniform[t],
+                    bits_now,
+                    noise[t],
+                    t,
+                )
             states.append(self.model.physical_state(particles))
         trajectory = torch.stack(states)  # [T+1, M, d_x]
         step_costs = self.cost(trajectory).mean(-1)  # [T+1]
@@ -172,25 +180,47 @@ class ParticleRollout:
         actions = act(policy_inputs, bits)
         return self.model.step(particles, actions, noise, encoded)
 
-    def _advance(
+    def _reading_step(
         self,
         act: Callable[..., torch.Tensor],
         particles: torch.Tensor,
+        memory: Any,
+        seen: torch.Tensor | None,
+        actions: torch.Tensor | None,
+        gaussian: torch.Tensor,
+        uniform: torch.Tensor | None,
         bits: torch.Tensor | None,
         noise: torch.Tensor,
         step: int,
-    ) -> torch.Tensor:
-        """:meth:`_state_step` at ``step``, compiled where asked for and possible. The first
-        step runs eagerly: its particles need no gradient, which would be one more graph."""
-        bits_now = None if bits is None else bits[step]
-        if self._compiled_step is None or step == 0:
-            return self._state_step(act, particles, bits_now, noise, step)
+    ) -> tuple[torch.Tensor, Any, torch.Tensor, torch.Tensor]:
+        """Next (particles, estimator memory, what the policy read, actions ``[M, d_u]``)
+        when the policy sees online estimates of simulated readings: the particles are read
+        with fictitious noise (``gaussian`` ``[M, d_y]``, quantisation ``uniform``), the
+        estimator steps, the policy acts on the estimate (a history for DF models)."""
+        assert self.sensors is not None
+        reading = self.sensors.simulate(self.model.physical_state(particles), gaussian, uniform)
+        estimate, memory = self.estimator.online_step(reading, memory)
+        seen = self.model.closed_loop_state(seen, estimate, actions)
+        policy_inputs = self.model.with_tracking_errors(
+            self.model.policy_inputs(seen), estimate, step
+        )
+        actions = act(policy_inputs, bits)
+        return self.model.step(particles, actions, noise), memory, seen, actions
+
+    def _run(self, function: Callable[..., Any], compiled: bool, *args: Any) -> Any:
+        """``function(*args)``, through ``torch.compile`` if the rollout compiles and
+        ``compiled`` holds; a compiler failure switches compilation off with a warning."""
+        if not (self.compile and compiled):
+            return function(*args)
+        name = function.__name__
+        if name not in self._compiled:
+            self._compiled[name] = torch.compile(function)
         try:
-            return self._compiled_step(act, particles, bits_now, noise, step)
+            return self._compiled[name](*args)
         except Exception as error:  # noqa: BLE001 - any compiler failure: run eagerly
             log.warning("torch.compile of the particle step failed (%s); running eagerly", error)
-            self._compiled_step = None
-            return self._state_step(act, particles, bits_now, noise, step)
+            self.compile = False
+            return function(*args)
 
     def initial_states(self, standard_normal: torch.Tensor) -> torch.Tensor:
         """Samples of p(x0) ``[M, d_x]`` from standard-normal draws ``[M, d_x]``."""
