@@ -68,11 +68,19 @@ def test_compiled_rollout_matches_eager_through_dropout_changes_and_refits(
     eager = ParticleRollout.for_system(*args)
     compiled = ParticleRollout.for_system(*args, compile=True)
     settings = [(0.25, 0), (0.25, 1), (0.125, 0), (0.0, 0), ("refit", 0), (0.25, 2), (0.0, 2)]
+    settings.append(("no_grad", 0))  # a gradient-free rollout (the loggers'): eager, no graph
     with torch._dynamo.config.patch(recompile_limit=4, fail_on_recompile_limit_hit=True):
         for dropout, seed in settings:
             if dropout == "refit":
                 states, actions = exploration_data(built, 40, seed=5)
                 c.model.fit(states, actions)
+                continue
+            if dropout == "no_grad":
+                with torch.no_grad():
+                    expected = eager(PARTICLES, 0.0, torch.Generator().manual_seed(seed))
+                    got = compiled(PARTICLES, 0.0, torch.Generator().manual_seed(seed))
+                assert float(got.total_cost) == float(expected.total_cost)  # both eager
+                assert compiled.compile  # it did not try (and fail) to compile a graph
                 continue
             with frozen(c.model):
                 cost, gradient = cost_and_gradient(eager, float(dropout), seed)
@@ -110,3 +118,27 @@ def test_a_failing_compiler_falls_back_to_eager_with_a_warning(
     assert not rollout.compile
     assert cost == reference[0]
     torch.testing.assert_close(gradient, reference[1], rtol=0, atol=0)
+
+
+def test_a_new_compiling_rollout_is_not_limited_by_the_graphs_of_an_earlier_run() -> None:
+    """A sweep's jobs or the bench's settings run one after another in a process; each
+    run's rollout starts with PyTorch's compile caches cleared, so the graphs of earlier
+    runs do not use up the per-function limit (which would silently run eagerly)."""
+    with torch._dynamo.config.patch(recompile_limit=2, fail_on_recompile_limit_hit=True):
+        for overrides in ([], ["dtype=float32"], ["kernel=sp"]):
+            built = small_experiment(*overrides)
+            c = built.components
+            states, actions = exploration_data(built, 20)
+            c.model.fit(states, actions)
+            rollout = ParticleRollout.for_system(
+                c.system,
+                c.model,
+                c.policy,
+                c.cost,
+                c.estimator,
+                c.simulate_estimator,
+                compile=True,
+            )
+            with frozen(c.model):
+                cost_and_gradient(rollout, 0.25, 0)
+            assert rollout.compile, overrides

@@ -49,12 +49,15 @@ class ParticleRollout:
             becomes erf(z/√2), uniform on (−1, 1)).
         sensors: the system's sensors, simulated on the particles for a non-identity
             estimator (None: the policy sees the particle itself).
-        compile: run the per-step work of a policy that sees the particle itself (encode,
-            act, GP sample, transition, and their backward) through ``torch.compile``:
-            one fused graph instead of ~200 small ops per step. Compiles a few graphs
+        compile: run each time step of a rollout that records gradients (features or
+            simulated readings and online estimate, policy, GP sample, transition, and
+            their backward) through ``torch.compile``: fused kernels instead of ~80 small
+            ops per step. Compiles a few graphs
             (seconds each, cached on disk by PyTorch) and falls back to eager execution,
             with a warning, where compilation fails (e.g. no C++ compiler on a CPU-only
-            machine). Results agree with eager execution to rounding.
+            machine). Results agree with eager execution to rounding. Building a compiling
+            rollout clears PyTorch's in-memory compile caches (``torch._dynamo.reset``),
+            so that graphs of earlier runs in the process do not use up its limit.
     """
 
     def __init__(
@@ -73,6 +76,11 @@ class ParticleRollout:
         self.initial_uniform = initial_uniform
         self.compile = compile
         self._compiled: dict[str, Callable[..., Any]] = {}
+        if compile:
+            # PyTorch caps the graphs kept per function (8); graphs of an earlier run in
+            # this process (a sweep's jobs, the bench's settings) would use them up, after
+            # which it silently runs eagerly. Recompiling them is served by its disk cache.
+            torch._dynamo.reset()
         self.sensors = sensors
         self.model = model
         self.policy = policy
@@ -208,9 +216,11 @@ class ParticleRollout:
         return self.model.step(particles, actions, noise), memory, seen, actions
 
     def _run(self, function: Callable[..., Any], compiled: bool, *args: Any) -> Any:
-        """``function(*args)``, through ``torch.compile`` if the rollout compiles and
-        ``compiled`` holds; a compiler failure switches compilation off with a warning."""
-        if not (self.compile and compiled):
+        """``function(*args)``, through ``torch.compile`` if the rollout compiles,
+        ``compiled`` holds and gradients are recorded (a gradient-free rollout, e.g. the
+        particle prediction the loggers store, runs once per trial: not worth a graph);
+        a compiler failure switches compilation off with a warning."""
+        if not (self.compile and compiled and torch.is_grad_enabled()):
             return function(*args)
         name = function.__name__
         if name not in self._compiled:
