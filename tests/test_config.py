@@ -174,6 +174,7 @@ def test_unknown_option_lists_the_choices() -> None:
         ("dtype=float16", "dtype"),
         ("num_trials=0", "num_trials"),
         ("device=tpu", "device"),
+        ("compile=sometimes", "compile"),
     ],
 )
 def test_bad_values_fail_with_the_key_in_one_line(override: str, key: str) -> None:
