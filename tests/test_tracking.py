@@ -87,7 +87,7 @@ def test_sigkill_mid_trial_then_resume_keeps_each_trial_once(tmp_path: Path) -> 
     run_dir = tmp_path / "run"
     slow_trial_2 = [
         "num_trials=2",
-        "optimizer.max_steps=150",  # trial 2 runs long enough to be killed inside it
+        "optimizer.max_steps=600",  # trial 2 (~6 s idle) runs long enough to be killed inside it
         "optimizer.schedule.window=100000",
     ]
     process = subprocess.Popen(
