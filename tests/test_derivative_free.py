@@ -17,9 +17,13 @@ READINGS = np.array([[1.0, 0.5], [1.5, 0.7], [2.5, 0.6], [3.0, 1.0]])  # (p, θ)
 ACTIONS = np.array([[10.0], [20.0], [30.0]])
 
 
-def make(inputs: str = "differences", m_q: int = 2, m_u: int = 1) -> DerivativeFree:
+def make(
+    inputs: str = "differences", m_q: int = 2, m_u: int = 1, units: str = "per_step"
+) -> DerivativeFree:
     system = CartPole(measured_indices=[0, 2])
-    return DerivativeFree(system, None, None, None, m_q=m_q, m_u=m_u, inputs=inputs)  # type: ignore[arg-type]
+    return DerivativeFree(
+        system, None, None, None, m_q=m_q, m_u=m_u, inputs=inputs, difference_units=units  # type: ignore[arg-type]
+    )
 
 
 def test_difference_inputs_by_hand() -> None:
@@ -32,6 +36,26 @@ def test_difference_inputs_by_hand() -> None:
     ]
     np.testing.assert_allclose(inputs.numpy(), expected, atol=1e-12)
     np.testing.assert_allclose(targets.numpy(), [[0.5, 0.2], [1.0, -0.1], [0.5, 0.4]], atol=1e-12)
+
+
+def test_differences_per_second_are_divided_by_the_sampling_time() -> None:
+    inputs, targets = make(units="per_second").dataset([READINGS], [ACTIONS])
+    rate = 1.0 / 0.05  # CartPole's default dt is 0.05 s
+    expected = [
+        [1.0, sin(0.5), cos(0.5), 0.0, 0.0, 0.0, 0.0, 10.0, 0.0],
+        [1.5, sin(0.7), cos(0.7), 0.5 * rate, 0.2 * rate, 0.0, 0.0, 20.0, 10.0],
+        [2.5, sin(0.6), cos(0.6), 1.0 * rate, -0.1 * rate, 0.5 * rate, 0.2 * rate, 30.0, 20.0],
+    ]
+    np.testing.assert_allclose(inputs.numpy(), expected, atol=1e-12)
+    np.testing.assert_allclose(targets.numpy(), [[0.5, 0.2], [1.0, -0.1], [0.5, 0.4]], atol=1e-12)
+
+
+def test_semi_parametric_basis_reads_the_same_velocities_in_either_unit() -> None:
+    """The SP basis is built from [q_t, (q_t − q_{t−1}) / dt], whatever the feature units."""
+    per_step, per_second = make(), make(units="per_second")
+    bases = [m.output_basis(m.dataset([READINGS], [ACTIONS])[0]) for m in (per_step, per_second)]
+    torch.testing.assert_close(bases[0], bases[1])
+    np.testing.assert_allclose(bases[1][:, 2, 0].numpy(), [1.0 / 0.05, -0.1 / 0.05])
 
 
 def test_naive_inputs_by_hand() -> None:
@@ -87,3 +111,5 @@ def test_inconsistent_derivative_free_configs_fail_with_the_key() -> None:
         make(m_q=0)
     with pytest.raises(ConfigError, match="model.inputs"):
         make("velocities")
+    with pytest.raises(ConfigError, match="model.difference_units"):
+        make(units="per_minute")

@@ -13,6 +13,7 @@ from mcpilco.models.base import ModelStructure
 from mcpilco.models.features import AngleFeatures
 
 INPUT_KINDS = ("differences", "naive")
+DIFFERENCE_UNITS = ("per_step", "per_second")
 
 
 class DerivativeFree(ModelStructure):
@@ -24,7 +25,10 @@ class DerivativeFree(ModelStructure):
     With ``inputs="differences"`` (eq. 4.2–4.3) the features are
     ``x* = [q_t, Δq_{t−1}, …, Δq_{t−m_q}]`` with Δq_{t−i} = q_{t−i+1} − q_{t−i}; with
     ``"naive"`` they are ``[q_t, …, q_{t−m_q}]``. Angles enter as sin/cos. The policy sees
-    x*, the GPs ``[x*, u_t, u_{t−1}, …, u_{t−m_u}]``.
+    x*, the GPs ``[x*, u_t, u_{t−1}, …, u_{t−m_u}]``. With ``difference_units="per_second"``
+    the differences in x* are divided by dt (rates in units/s, the scale of the velocities a
+    full-state policy reads, so that the policy's initial length-scales and centres suit
+    them); ``"per_step"`` feeds Δq as written in eq. 4.2–4.3. The GP targets are Δq either way.
 
     The model is trained on raw position readings (``estimator=none``). Costs see the
     state ``[q_t, (q_t − q_{t−1}) / dt]`` in the system's layout. In a rollout the policy
@@ -33,7 +37,8 @@ class DerivativeFree(ModelStructure):
 
     Args:
         m_q: position memory (≥ 1). m_u: input memory (≥ 0).
-        inputs: ``differences`` or ``naive``. Others: see :class:`ModelStructure`.
+        inputs: ``differences`` or ``naive``. difference_units: ``per_step`` or
+        ``per_second`` (ignored with ``inputs=naive``). Others: see :class:`ModelStructure`.
     """
 
     sees_readings = True
@@ -44,6 +49,7 @@ class DerivativeFree(ModelStructure):
         m_q: int = 1,
         m_u: int = 1,
         inputs: str = "differences",
+        difference_units: str = "per_step",
         **kwargs: object,
     ) -> None:
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
@@ -53,6 +59,11 @@ class DerivativeFree(ModelStructure):
             raise ConfigError(f"model.m_u must be an integer >= 0, got {m_u!r}")
         if inputs not in INPUT_KINDS:
             raise ConfigError(f"model.inputs must be one of {list(INPUT_KINDS)}, got {inputs!r}")
+        if difference_units not in DIFFERENCE_UNITS:
+            raise ConfigError(
+                f"model.difference_units must be one of {list(DIFFERENCE_UNITS)}, "
+                f"got {difference_units!r}"
+            )
         system = self.system
         if system.reference_states is not None:
             raise ConfigError(
@@ -67,6 +78,7 @@ class DerivativeFree(ModelStructure):
                 f"{list(system.sensors.measured)} lacks {missing}"
             )
         self.m_q, self.m_u, self.inputs = m_q, m_u, inputs
+        self.difference_scale = 1.0 / system.dt if difference_units == "per_second" else 1.0
         self.num_positions = len(positions)
         self.reading_columns = [list(system.sensors.measured).index(i) for i in positions]
         self.position_features = AngleFeatures(
@@ -109,6 +121,8 @@ class DerivativeFree(ModelStructure):
         if self.inputs == "naive":
             return self.position_features.encode(history).flatten(-2)
         differences = history[..., :-1, :] - history[..., 1:, :]  # Δq_{t−1}, …, Δq_{t−m_q}
+        if self.difference_scale != 1.0:
+            differences = differences * self.difference_scale
         current = self.position_features.encode(history[..., 0, :])
         return torch.cat([current, differences.flatten(-2)], dim=-1)
 
@@ -201,7 +215,10 @@ class DerivativeFree(ModelStructure):
         encoded_size = self.position_features.dim
         current = self.position_features.decode(gp_inputs[..., :encoded_size])
         if self.inputs == "differences":
-            step = gp_inputs[..., encoded_size : encoded_size + self.num_positions]
+            step = (
+                gp_inputs[..., encoded_size : encoded_size + self.num_positions]
+                / self.difference_scale
+            )
         else:
             previous = self.position_features.decode(
                 gp_inputs[..., encoded_size : 2 * encoded_size]
