@@ -22,7 +22,14 @@ def make(
 ) -> DerivativeFree:
     system = CartPole(measured_indices=[0, 2])
     return DerivativeFree(
-        system, None, None, None, m_q=m_q, m_u=m_u, inputs=inputs, difference_units=units  # type: ignore[arg-type]
+        system,
+        None,
+        None,
+        None,
+        m_q=m_q,
+        m_u=m_u,
+        inputs=inputs,
+        difference_units=units,  # type: ignore[arg-type]
     )
 
 

@@ -56,7 +56,10 @@ def test_fit_still_fails_when_the_initial_point_is_not_positive_definite(
         cfg = compose("train", overrides=["compile=false"])
     model = build(cfg).components.model
     gp = model.new_gp()
-    gp.set_data(torch.randn(10, model.gp_input_dim, dtype=torch.float64), torch.randn(10, 2, dtype=torch.float64))
+    gp.set_data(
+        torch.randn(10, model.gp_input_dim, dtype=torch.float64),
+        torch.randn(10, 2, dtype=torch.float64),
+    )
 
     def not_positive_definite() -> torch.Tensor:
         raise NotPositiveDefiniteError("GP outputs ['d_x1', 'd_x3']: not positive definite")
