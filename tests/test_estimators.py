@@ -115,6 +115,19 @@ def test_kalman_online_equals_textbook_filter(recorded) -> None:  # type: ignore
         np.testing.assert_allclose(online[:, velocity], reference[:, 1], atol=1e-8)
 
 
+def test_kalman_gains_reach_their_stationary_value_and_keep_it() -> None:
+    """Far past the point where the precomputed gain table ends, the online filter still
+    equals the textbook recursion."""
+    system = CartPole(dt=1 / 30, measured_indices=[0, 2], measurement_noise_std=3e-3)
+    estimator = KalmanEstimator(system, jerk_psd=1e4)
+    steps = 3 * len(estimator.gains)
+    readings = np.random.default_rng(5).normal(0.0, 0.1, size=(steps, 2))
+    online = run_online(estimator, readings)
+    p0 = np.diag([3e-3**2, 0.1**2, 1.0**2])
+    reference = textbook_kalman(readings[:, 1], system.dt, 1e4, 3e-3**2, p0)
+    np.testing.assert_allclose(online[:, 3], reference[:, 1], rtol=1e-9, atol=1e-9)
+
+
 def velocity_rms(estimates: np.ndarray, states: np.ndarray) -> float:
     return float(np.sqrt(np.mean((estimates[:, [1, 3]] - states[:, [1, 3]]) ** 2)))
 

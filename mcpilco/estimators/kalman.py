@@ -69,9 +69,8 @@ class KalmanEstimator(PositionBasedEstimator):
         prior[:, 1, 1] = initial_velocity_std**2
         prior[:, 2, 2] = initial_acceleration_std**2
         self.initial_covariance = prior
-        self._gains: list[np.ndarray] = []  # K_t [d_q, 3] for t = 1, 2, ...
-        self._covariance = prior.copy()
-        self._tensor_cache: dict[tuple[int, torch.dtype, torch.device], Any] = {}
+        self.gains = self._gain_table()
+        self._tensor_cache: dict[tuple[torch.dtype, torch.device], Any] = {}
 
     # --------------------------------------------------------------- covariance pass
     def _predict_update(self, covariance: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -83,23 +82,33 @@ class KalmanEstimator(PositionBasedEstimator):
         updated = predicted - gain[:, :, None] * predicted[:, None, 0, :]
         return predicted, gain, updated
 
+    def _gain_table(self, max_steps: int = 100_000, tolerance: float = 1e-14) -> np.ndarray:
+        """Gains ``[K, d_q, 3]`` for steps 1..K, K the first step whose gain equals the
+        previous one to ``tolerance`` (relative): from there on the filter is stationary
+        and every later step uses the last gain."""
+        covariance = self.initial_covariance.copy()
+        gains: list[np.ndarray] = []
+        for _ in range(max_steps):
+            _, gain, covariance = self._predict_update(covariance)
+            if gains and np.max(np.abs(gain - gains[-1])) <= tolerance * np.max(np.abs(gain)):
+                break
+            gains.append(gain)
+        return np.stack(gains)
+
     def gain(self, step: int) -> np.ndarray:
         """Kalman gain ``[d_q, 3]`` used at ``step`` ≥ 1."""
-        while len(self._gains) < step:
-            _, gain, self._covariance = self._predict_update(self._covariance)
-            self._gains.append(gain)
-        return self._gains[step - 1]
+        return self.gains[min(step, len(self.gains)) - 1]
 
     def _tensors(
-        self, step: int, dtype: torch.dtype, device: torch.device
+        self, dtype: torch.dtype, device: torch.device
     ) -> tuple[torch.Tensor, torch.Tensor]:
-        """Aᵀ ``[3, 3]`` and the gain ``[d_q, 3]`` of ``step`` as tensors, converted once per
-        step, dtype and device (the online step runs for every particle step)."""
-        key = (step, dtype, device)
+        """Aᵀ ``[3, 3]`` and the gain table ``[K, d_q, 3]`` as tensors, converted once per
+        dtype and device."""
+        key = (dtype, device)
         if key not in self._tensor_cache:
             self._tensor_cache[key] = (
                 torch.as_tensor(self.transition.T, dtype=dtype, device=device),
-                torch.as_tensor(self.gain(step), dtype=dtype, device=device),
+                torch.as_tensor(self.gains, dtype=dtype, device=device),
             )
         return self._tensor_cache[key]
 
@@ -130,7 +139,10 @@ class KalmanEstimator(PositionBasedEstimator):
 
     # ---------------------------------------------------------------------- online
     def online_reset(self, batch_size: int, like: torch.Tensor) -> dict[str, Any]:
-        return {"state": None, "step": 0}
+        """The gains travel in the memory as a tensor, so a compiled rollout step reads
+        them as data instead of guarding on Python state that changes every step."""
+        transition_t, gains = self._tensors(like.dtype, like.device)
+        return {"state": None, "step": 0, "transition_t": transition_t, "gains": gains}
 
     def online_step(
         self, measurement: torch.Tensor, memory: dict[str, Any]
@@ -141,8 +153,9 @@ class KalmanEstimator(PositionBasedEstimator):
             zeros = torch.zeros_like(positions)
             state = torch.stack([positions, zeros, zeros], dim=-1)  # [B, d_q, 3]
         else:
-            transition_t, gain = self._tensors(step, positions.dtype, positions.device)
-            prior = torch.matmul(memory["state"], transition_t)
+            gains = memory["gains"]
+            gain = gains[min(step, gains.shape[0]) - 1]
+            prior = torch.matmul(memory["state"], memory["transition_t"])
             state = torch.addcmul(prior, (positions - prior[..., 0]).unsqueeze(-1), gain)
         estimate = self.assemble_tensor(state[..., 0], state[..., 1])
-        return estimate, {"state": state, "step": step + 1}
+        return estimate, {**memory, "state": state, "step": step + 1}
