@@ -32,7 +32,7 @@ TINY = [
 ]
 
 
-def run_module(module: str, *args: str, timeout: float = 120) -> subprocess.CompletedProcess[str]:
+def run_module(module: str, *args: str, timeout: float = 600) -> subprocess.CompletedProcess[str]:
     """``python -m module args...`` from the repository root, output captured."""
     return subprocess.run(
         [sys.executable, "-m", module, *args],

@@ -39,7 +39,7 @@ def test_log_holds_every_rollout_and_the_metadata(tmp_path: Path) -> None:
         cwd=ROOT,
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=600,  # a hang guard, not a time limit (a loaded machine is slow)
     )
     assert result.returncode == 0, result.stderr[-2000:]
     # The plain mcap reader (summary section present: the run ended normally).
@@ -151,7 +151,7 @@ def test_rerun_recording_and_replay_verify_and_hold_the_particles(tmp_path: Path
         cwd=ROOT,
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=600,  # a hang guard, not a time limit (a loaded machine is slow)
     )
     assert result.returncode == 0, result.stderr[-2000:]
     replayed = subprocess.run(
@@ -159,7 +159,7 @@ def test_rerun_recording_and_replay_verify_and_hold_the_particles(tmp_path: Path
         cwd=ROOT,
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=600,  # a hang guard, not a time limit (a loaded machine is slow)
     )
     assert replayed.returncode == 0, replayed.stderr[-2000:]
     rerun = Path(sys.executable).parent / "rerun"
