@@ -95,10 +95,6 @@ class KalmanEstimator(PositionBasedEstimator):
             gains.append(gain)
         return np.stack(gains)
 
-    def gain(self, step: int) -> np.ndarray:
-        """Kalman gain ``[d_q, 3]`` used at ``step`` ≥ 1."""
-        return self.gains[min(step, len(self.gains)) - 1]
-
     def _tensors(
         self, dtype: torch.dtype, device: torch.device
     ) -> tuple[torch.Tensor, torch.Tensor]:
