@@ -102,7 +102,11 @@ def build(cfg: DictConfig) -> Experiment:
     system = make(cfg.system)
     model = make(cfg.model, system=system, kernel=make(cfg.kernel))
     model.new_gp()  # builds a kernel now, so kernel errors surface before any work
-    policy = make(cfg.policy)(
+    policy_factory = make(cfg.policy)
+    policy_target = policy_factory.func if isinstance(policy_factory, partial) else policy_factory
+    if "angle_columns" in inspect.signature(policy_target).parameters:
+        policy_factory = partial(policy_factory, angle_columns=model.policy_angle_columns)
+    policy = policy_factory(
         input_dim=model.policy_input_size,
         action_dim=system.action_dim,
         u_max=system.u_max,

@@ -120,3 +120,14 @@ def test_inconsistent_derivative_free_configs_fail_with_the_key() -> None:
         make("velocities")
     with pytest.raises(ConfigError, match="model.difference_units"):
         make(units="per_minute")
+
+
+@pytest.mark.parametrize("inputs", ["differences", "naive"])
+def test_policy_angle_columns_hold_sin_and_cos_of_the_angle(inputs: str) -> None:
+    model = make(inputs)
+    particles = model.initial_particles(torch.tensor([[0.3, 0.0, 1.1, 0.0]], dtype=torch.float64))
+    features = model.policy_inputs(particles)[0]
+    assert model.policy_angle_columns  # one pair per copy of θ in the input
+    for sin_column, cos_column in model.policy_angle_columns:
+        assert features[sin_column].item() == pytest.approx(sin(1.1))
+        assert features[cos_column].item() == pytest.approx(cos(1.1))

@@ -85,3 +85,9 @@ def test_angle_feature_gradient(generator: torch.Generator) -> None:
     features = AngleFeatures(4, [2]).to(torch.float64)
     x = torch.randn(6, 4, generator=generator, dtype=torch.float64, requires_grad=True)
     assert torch.autograd.gradcheck(features.encode, (x,))
+
+
+def test_policy_angle_columns_of_the_cartpole_state() -> None:
+    """[p, ṗ, θ̇, sin θ, cos θ]: the pair is (3, 4), written out by hand."""
+    assert make(SpeedIntegration).policy_angle_columns == [(3, 4)]
+    assert make(FullState).policy_angle_columns == [(3, 4)]

@@ -7,6 +7,7 @@ import pytest
 import torch
 from torch.autograd import gradcheck
 
+from mcpilco.errors import ConfigError
 from mcpilco.policies import SquashedRBFPolicy, UniformRandomExploration
 from mcpilco.policies.rbf import _SquashedRBF
 
@@ -104,3 +105,34 @@ def test_filtered_noise_has_the_requested_std_and_cutoff() -> None:
     spectrum = np.abs(np.fft.rfft(actions)) ** 2
     frequencies = np.fft.rfftfreq(actions.size, dt)
     assert spectrum[frequencies > 4.0].sum() < 0.02 * spectrum.sum()
+
+
+def test_circle_centres_lie_on_the_unit_circle_and_leave_other_columns_alone() -> None:
+    columns = [(1, 3)]
+    uniform = SquashedRBFPolicy(
+        5, 1, 10.0, num_basis=500, generator=torch.Generator().manual_seed(7)
+    )
+    circle = SquashedRBFPolicy(
+        5,
+        1,
+        10.0,
+        num_basis=500,
+        angle_centres="circle",
+        angle_columns=columns,
+        generator=torch.Generator().manual_seed(7),
+    )
+    c = circle.centres.detach()
+    torch.testing.assert_close(c[:, 1] ** 2 + c[:, 3] ** 2, torch.ones(500, dtype=torch.float64))
+    angles = torch.atan2(c[:, 1], c[:, 3]).numpy()
+    counts, _ = np.histogram(angles, bins=4, range=(-np.pi, np.pi))
+    assert counts.min() > 90  # spread round the circle (125 expected per quarter)
+    kept = [0, 2, 4]
+    torch.testing.assert_close(c[:, kept], uniform.centres.detach()[:, kept])
+    torch.testing.assert_close(circle.weights, uniform.weights)
+
+
+def test_bad_angle_centre_options_name_the_key() -> None:
+    with pytest.raises(ConfigError, match="policy.angle_centres"):
+        SquashedRBFPolicy(5, 1, 10.0, angle_centres="ring")
+    with pytest.raises(ConfigError, match="angle_columns"):
+        SquashedRBFPolicy(5, 1, 10.0, angle_centres="circle", angle_columns=[(1, 5)])

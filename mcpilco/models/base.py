@@ -99,6 +99,11 @@ class ModelStructure(nn.Module, ABC):
         tracking = 0 if self._reference is None else self.system.state_dim
         return self.policy_input_dim + tracking
 
+    @property
+    def policy_angle_columns(self) -> list[tuple[int, int]]:
+        """(sin θ, cos θ) column pairs of the policy input, one per angle it reads."""
+        return self.features.angle_columns
+
     def with_tracking_errors(
         self, inputs: torch.Tensor, states: torch.Tensor, step: int
     ) -> torch.Tensor:

@@ -115,6 +115,14 @@ class DerivativeFree(ModelStructure):
     def gp_input_dim(self) -> int:
         return self.policy_input_dim + self.system.action_dim * (self.m_u + 1)
 
+    @property
+    def policy_angle_columns(self) -> list[tuple[int, int]]:
+        """The sin/cos pairs of q_t (and of each older q with ``inputs=naive``)."""
+        pairs = self.position_features.angle_columns
+        blocks = 1 if self.inputs == "differences" else self.m_q + 1
+        width = self.position_features.dim
+        return [(s + b * width, c + b * width) for b in range(blocks) for s, c in pairs]
+
     # ------------------------------------------------------------- ModelStructure
     def encode(self, particles: torch.Tensor) -> torch.Tensor:
         history = self._positions(particles)

@@ -41,6 +41,12 @@ class AngleFeatures(nn.Module):
             persistent=False,
         )
 
+    @property
+    def angle_columns(self) -> list[tuple[int, int]]:
+        """(sin θ, cos θ) column pairs of x*, one per angle."""
+        n_other, n_angles = len(self.other_indices), len(self.angle_indices)
+        return [(n_other + k, n_other + n_angles + k) for k in range(n_angles)]
+
     def encode(self, state: torch.Tensor) -> torch.Tensor:
         """x* from x."""
         if not self.angle_indices:

@@ -38,6 +38,7 @@ class OptimizationResult:
     learning_rates: list[float] = field(default_factory=list)
     signals: list[float] = field(default_factory=list)
     restarts: int = 0
+    adam_restarts: int = 0
 
     @property
     def steps(self) -> int:
@@ -68,6 +69,9 @@ class PolicyOptimizer:
             :class:`MonitoringSchedule`.
         max_nan_retries: consecutive non-finite costs tolerated before the policy is
             re-initialised.
+        restart_adam_on_reduction: at each reduction of the schedule (2.14) start a fresh
+            Adam (moment estimates and bias correction reset) at the new α_lr, as the public
+            reference code does; false only lowers the learning rate of the running Adam.
     """
 
     def __init__(
@@ -77,6 +81,7 @@ class PolicyOptimizer:
         max_steps_first_trial: int = 2000,
         schedule: dict[str, float] | None = None,
         max_nan_retries: int = 10,
+        restart_adam_on_reduction: bool = False,
     ) -> None:
         for key, value in (
             ("num_particles", num_particles),
@@ -91,6 +96,12 @@ class PolicyOptimizer:
         self.schedule_options = dict(schedule or {})
         MonitoringSchedule(**self.schedule_options)  # validate now, before any work
         self.max_nan_retries = max_nan_retries
+        if not isinstance(restart_adam_on_reduction, bool):
+            raise ConfigError(
+                "optimizer.restart_adam_on_reduction must be true or false, "
+                f"got {restart_adam_on_reduction!r}"
+            )
+        self.restart_adam_on_reduction = restart_adam_on_reduction
 
     def optimize(
         self,
@@ -127,6 +138,9 @@ class PolicyOptimizer:
                 optimizer.step()
                 cost = float(total.detach())
                 event = schedule.update(cost)
+                if event.reduced and self.restart_adam_on_reduction:
+                    optimizer = torch.optim.Adam(policy.parameters(), lr=schedule.learning_rate)
+                    result.adam_restarts += 1
                 for group in optimizer.param_groups:
                     group["lr"] = schedule.learning_rate
                 result.costs.append(cost)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import torch
@@ -11,6 +11,8 @@ from torch import nn
 from torch.autograd.function import once_differentiable
 
 from mcpilco.errors import ConfigError
+
+ANGLE_CENTRES = ("uniform", "circle")
 
 
 class _SquashedRBF(torch.autograd.Function):
@@ -102,7 +104,11 @@ class SquashedRBFPolicy(nn.Module):
 
     One diagonal length-scale vector ℓ is shared by all basis functions. Initialisation
     follows the public reference code: centres uniform in [−centre_range, centre_range],
-    weights uniform in [−u_max/2, u_max/2], ℓ = ``lengthscale``.
+    weights uniform in [−u_max/2, u_max/2], ℓ = ``lengthscale``. With
+    ``angle_centres="circle"`` the centres' (sin θ, cos θ) columns named by
+    ``angle_columns`` are drawn on the unit circle instead, (sin a, cos a) with a uniform
+    in [−π, π) (as the reference code does for the cart-pole), so each basis function sits
+    at an angle the input can reach; ``"uniform"`` treats them like every other column.
 
     Dropout (only while optimising): each particle drops each basis function (its weights
     for all action components) with probability p_d and scales the kept ones by 1/(1 − p_d).
@@ -110,6 +116,9 @@ class SquashedRBFPolicy(nn.Module):
     Args:
         input_dim: d_π. action_dim: d_u. u_max: action bound.
         num_basis: n_b. lengthscale: initial ℓ. centre_range: see above.
+        angle_centres: ``uniform`` or ``circle``, see above.
+        angle_columns: (sin column, cos column) pairs of the input (the model structure
+            passes them; ignored with ``angle_centres="uniform"``).
         generator: source of the random initialisation.
     """
 
@@ -121,9 +130,23 @@ class SquashedRBFPolicy(nn.Module):
         num_basis: int = 200,
         lengthscale: float = 1.0,
         centre_range: float = math.pi,
+        angle_centres: str = "uniform",
+        angle_columns: Sequence[tuple[int, int]] = (),
         generator: torch.Generator | None = None,
     ) -> None:
         super().__init__()
+        if angle_centres not in ANGLE_CENTRES:
+            raise ConfigError(
+                f"policy.angle_centres must be one of {list(ANGLE_CENTRES)}, got {angle_centres!r}"
+            )
+        columns = [(int(s), int(c)) for s, c in angle_columns]
+        flat = [i for pair in columns for i in pair]
+        if any(not 0 <= i < input_dim for i in flat) or len(set(flat)) != len(flat):
+            raise ConfigError(
+                f"policy angle_columns {columns} must be distinct columns of the "
+                f"{input_dim}-dimensional policy input"
+            )
+        self.angle_columns = columns if angle_centres == "circle" else []
         if num_basis < 1:
             raise ConfigError(f"policy.num_basis must be >= 1, got {num_basis}")
         if lengthscale <= 0:
@@ -146,6 +169,15 @@ class SquashedRBFPolicy(nn.Module):
         ):
             sample = torch.rand(parameter.shape, generator=generator, dtype=torch.float64)
             parameter.copy_((2.0 * sample - 1.0) * half_width)
+        if self.angle_columns:
+            sample = torch.rand(
+                (self.num_basis, len(self.angle_columns)), generator=generator, dtype=torch.float64
+            )
+            angles = (2.0 * sample - 1.0) * math.pi
+            sin_columns = [s for s, _ in self.angle_columns]
+            cos_columns = [c for _, c in self.angle_columns]
+            self.centres[:, sin_columns] = angles.sin().to(self.centres)
+            self.centres[:, cos_columns] = angles.cos().to(self.centres)
         self.log_lengthscale.fill_(math.log(self.initial_lengthscale))
 
     def dropout_bits(

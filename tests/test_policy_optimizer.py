@@ -1,0 +1,88 @@
+"""Policy optimiser: Adam restarted (or not) at a schedule reduction, against Adam's formula."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import pytest
+import torch
+from torch import nn
+
+from mcpilco.errors import ConfigError
+from mcpilco.optim import PolicyOptimizer
+
+REDUCTION_STEP = 3  # window 3 with an always-met threshold: the first reduction after step 3
+
+
+@dataclass
+class _Cost:
+    total_cost: torch.Tensor
+
+
+class LinearCostRollout:
+    """Ĵ(θ) = s_j θ for one scalar parameter θ: gradient 1e-3 up to the reduction, 1 after,
+    so Adam's moment estimates before the reduction change the step after it. Records θ
+    at every call."""
+
+    def __init__(self) -> None:
+        self.policy = nn.Module()
+        self.policy.theta = nn.Parameter(torch.zeros((), dtype=torch.float64))
+        self.model = nn.Module()
+        self.thetas: list[float] = []
+
+    def __call__(self, particles: int, dropout: float, generator: object) -> _Cost:
+        step = len(self.thetas)
+        self.thetas.append(float(self.policy.theta.detach()))
+        scale = 1e-3 if step <= REDUCTION_STEP else 1.0
+        return _Cost(scale * self.policy.theta + float(step))
+
+
+def run(restart: bool) -> list[float]:
+    rollout = LinearCostRollout()
+    schedule = {
+        "window": REDUCTION_STEP,
+        "threshold": 1e9,
+        "dropout_step": 0.0,
+        "learning_rate": 0.01,
+        "learning_rate_min": 1e-9,
+        "factor": 0.5,
+    }
+    optimizer = PolicyOptimizer(
+        num_particles=1,
+        max_steps=REDUCTION_STEP + 3,
+        max_steps_first_trial=REDUCTION_STEP + 3,
+        schedule=schedule,
+        restart_adam_on_reduction=restart,
+    )
+    optimizer.optimize(rollout, trial=1, generator=None)  # type: ignore[arg-type]
+    return rollout.thetas
+
+
+def adam_step(gradients: list[float], lr: float) -> float:
+    """The last update of Adam (β 0.9/0.999, ε 1e-8) fed ``gradients``, from its definition."""
+    m = v = 0.0
+    for g in gradients:
+        m = 0.9 * m + 0.1 * g
+        v = 0.999 * v + 0.001 * g * g
+    t = len(gradients)
+    m_hat, v_hat = m / (1 - 0.9**t), v / (1 - 0.999**t)
+    return -lr * m_hat / (v_hat**0.5 + 1e-8)
+
+
+def test_a_restarted_adam_takes_a_fresh_first_step_at_the_reduced_rate() -> None:
+    thetas = run(restart=True)
+    first_after = thetas[REDUCTION_STEP + 2] - thetas[REDUCTION_STEP + 1]
+    assert first_after == pytest.approx(adam_step([1.0], 0.005), rel=1e-9)  # = −0.005
+
+
+def test_a_kept_adam_carries_its_moments_through_the_reduction() -> None:
+    thetas = run(restart=False)
+    first_after = thetas[REDUCTION_STEP + 2] - thetas[REDUCTION_STEP + 1]
+    history = [1e-3] * (REDUCTION_STEP + 1) + [1.0]
+    assert first_after == pytest.approx(adam_step(history, 0.005), rel=1e-9)
+    assert abs(first_after) < 0.8 * 0.005  # measurably different from a restart
+
+
+def test_restart_flag_must_be_boolean() -> None:
+    with pytest.raises(ConfigError, match="optimizer.restart_adam_on_reduction"):
+        PolicyOptimizer(restart_adam_on_reduction="yes")  # type: ignore[arg-type]
