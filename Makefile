@@ -4,6 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 TORCH  := torch==2.13.0
 STAMP  := $(VENV)/.installed
+TEST_WORKERS ?= auto   # pytest-xdist workers (one per core); 0 runs the tests in one process
 
 .PHONY: help install train test test-slow bench lint clean
 
@@ -22,11 +23,11 @@ install: $(STAMP)  ## create the virtual environment and install mcpilco
 train: $(STAMP)  ## run the default experiment (cart-pole swing-up, MC-PILCO, SE kernel)
 	$(PY) -m runners.train $(ARGS)
 
-test: $(STAMP)  ## run the test suite (the command CI runs)
-	$(PY) -m pytest -q
+test: $(STAMP)  ## run the test suite (the command CI runs), one worker per core
+	$(PY) -m pytest -q -n $(TEST_WORKERS)
 
 test-slow: $(STAMP)  ## run the long learning tests too
-	$(PY) -m pytest -q -m slow
+	$(PY) -m pytest -q -m slow -n $(TEST_WORKERS)
 
 bench: $(STAMP)  ## time one policy-optimisation step and a GP fit
 	$(PY) -m runners.bench $(ARGS)
