@@ -83,14 +83,19 @@ def with_system(made: Any, system: MechanicalSystem) -> Any:
     return made(system=system) if isinstance(made, partial) else made
 
 
+def bind_if_accepted(factory: Any, name: str, value: Any) -> Any:
+    """``factory`` with ``name=value`` bound when its target takes that argument (a user's
+    class need not); unchanged otherwise."""
+    target = factory.func if isinstance(factory, partial) else factory
+    if name in inspect.signature(target).parameters:
+        return partial(factory, **{name: value})
+    return factory
+
+
 def exploration_factory(made: Any, system: MechanicalSystem) -> Any:
     """The exploration partial with the action size bound, and the system too when the
     controller takes one (a PD controller following the task's reference)."""
-    factory = partial(made, action_dim=system.action_dim)
-    target = made.func if isinstance(made, partial) else made
-    if "system" in inspect.signature(target).parameters:
-        factory = partial(factory, system=system)
-    return factory
+    return bind_if_accepted(partial(made, action_dim=system.action_dim), "system", system)
 
 
 def build(cfg: DictConfig) -> Experiment:
@@ -102,10 +107,7 @@ def build(cfg: DictConfig) -> Experiment:
     system = make(cfg.system)
     model = make(cfg.model, system=system, kernel=make(cfg.kernel))
     model.new_gp()  # builds a kernel now, so kernel errors surface before any work
-    policy_factory = make(cfg.policy)
-    policy_target = policy_factory.func if isinstance(policy_factory, partial) else policy_factory
-    if "angle_columns" in inspect.signature(policy_target).parameters:
-        policy_factory = partial(policy_factory, angle_columns=model.policy_angle_columns)
+    policy_factory = bind_if_accepted(make(cfg.policy), "angle_columns", model.policy_angle_columns)
     policy = policy_factory(
         input_dim=model.policy_input_size,
         action_dim=system.action_dim,

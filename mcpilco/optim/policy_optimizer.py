@@ -38,7 +38,6 @@ class OptimizationResult:
     learning_rates: list[float] = field(default_factory=list)
     signals: list[float] = field(default_factory=list)
     restarts: int = 0
-    adam_restarts: int = 0
 
     @property
     def steps(self) -> int:
@@ -140,7 +139,6 @@ class PolicyOptimizer:
                 event = schedule.update(cost)
                 if event.reduced and self.restart_adam_on_reduction:
                     optimizer = torch.optim.Adam(policy.parameters(), lr=schedule.learning_rate)
-                    result.adam_restarts += 1
                 for group in optimizer.param_groups:
                     group["lr"] = schedule.learning_rate
                 result.costs.append(cost)
