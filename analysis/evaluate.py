@@ -33,7 +33,7 @@ import torch
 from omegaconf import OmegaConf
 from tqdm import tqdm
 
-from mcpilco.build import build
+from mcpilco.build import Experiment, build
 from mcpilco.controller import PolicyController
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
@@ -43,20 +43,26 @@ from mcpilco.trajectory import Trajectory
 log = logging.getLogger("mcpilco.evaluate")
 
 
-def evaluate(run_dir: Path, trial: int | None, runs: int, seed: int) -> dict[str, Any]:
-    """Success counts of trial ``trial``'s policy on the system and on the model."""
+def load_trial(run_dir: Path, trial: int | None) -> tuple[int, Experiment]:
+    """The run's experiment built from its saved config, with trial ``trial``'s policy and
+    GPs loaded (default: the last finished trial); a one-line exit on a trial it lacks."""
     storage = RunDirectory(run_dir)
     last = storage.finished_trials()
     trial = last if trial is None else trial
     if not 1 <= trial <= last:
         raise SystemExit(f"--trial={trial}: {run_dir} has learned trials 1..{last}")
+    experiment = build(OmegaConf.load(run_dir / "config.yaml"))  # type: ignore[arg-type]
+    experiment.components.policy.load_state_dict(storage.load_checkpoint(trial, "policy"))
+    experiment.components.model.load_gp(storage.load_checkpoint(trial, "model"))
+    return trial, experiment
+
+
+def evaluate(run_dir: Path, trial: int | None, runs: int, seed: int) -> dict[str, Any]:
+    """Success counts of trial ``trial``'s policy on the system and on the model."""
     if runs < 1:
         raise SystemExit(f"--runs={runs} must be positive")
-    cfg = OmegaConf.load(run_dir / "config.yaml")
-    experiment = build(cfg)  # type: ignore[arg-type]
+    trial, experiment = load_trial(run_dir, trial)
     c = experiment.components
-    c.policy.load_state_dict(storage.load_checkpoint(trial, "policy"))
-    c.model.load_gp(storage.load_checkpoint(trial, "model"))
     system, rng = c.system, np.random.default_rng(seed)
 
     system_success = []
@@ -88,7 +94,9 @@ def evaluate(run_dir: Path, trial: int | None, runs: int, seed: int) -> dict[str
         "system_successes": int(sum(system_success)),
         "model_successes": int(sum(model_success)),
     }
-    storage.write_text(f"evaluation/trial_{trial:02d}.json", json.dumps(result, indent=2))
+    RunDirectory(run_dir).write_text(
+        f"evaluation/trial_{trial:02d}.json", json.dumps(result, indent=2)
+    )
     return result
 
 
@@ -107,16 +115,9 @@ def parse_starts(text: str, state_dim: int) -> tuple[int, list[float]]:
 
 def evaluate_starts(run_dir: Path, trial: int | None, starts: str, seed: int) -> dict[str, Any]:
     """One system run of trial ``trial``'s policy from each fixed start; success per start."""
-    storage = RunDirectory(run_dir)
-    last = storage.finished_trials()
-    trial = last if trial is None else trial
-    if not 1 <= trial <= last:
-        raise SystemExit(f"--trial={trial}: {run_dir} has learned trials 1..{last}")
-    cfg = OmegaConf.load(run_dir / "config.yaml")
-    c = build(cfg).components  # type: ignore[arg-type]
+    trial, experiment = load_trial(run_dir, trial)
+    c = experiment.components
     index, values = parse_starts(starts, c.system.state_dim)
-    c.policy.load_state_dict(storage.load_checkpoint(trial, "policy"))
-    c.model.load_gp(storage.load_checkpoint(trial, "model"))
     rng = np.random.default_rng(seed)
     trajectories, outcomes = [], []
     for value in values:
@@ -135,7 +136,7 @@ def evaluate_starts(run_dir: Path, trial: int | None, starts: str, seed: int) ->
         )
     result = {"trial": trial, "seed": seed, "component": index, "starts": outcomes}
     name = f"evaluation/trial_{trial:02d}_starts"
-    storage.write_text(f"{name}.json", json.dumps(result, indent=2))
+    RunDirectory(run_dir).write_text(f"{name}.json", json.dumps(result, indent=2))
     _plot_starts(run_dir / name, c.system, trajectories, values, index)
     return result
 
