@@ -32,8 +32,10 @@ class FurutaPendulum(OdeSystem):
     J_h = m_h L_h²/3 + hub/rotor inertia, J_v = m_p L_v²/3, l = L_v/2, and the motor torque
     τ = k_t (V − k_m θ̇h) / R_m. Defaults: the Quanser QUBE-Servo 2 data sheet (R_m 8.4 Ω,
     k_t = k_m = 0.042, arm 0.095 kg × 0.085 m, pendulum 0.024 kg × 0.129 m, rotor 4e-6 kg m²,
-    hub 0.6e-6 kg m²) with the damping values of Quanser's course material (D_h 1.5e-3,
-    D_v 5e-4 N m s/rad; approximate, they vary between units).
+    hub 0.6e-6 kg m²) with the lighter damping of public QUBE-Servo 2 simulators (D_h 2.7e-4,
+    D_v 5e-5 N m s/rad). Quanser's course material quotes 1.5e-3 and 5e-4, approximate; with
+    those no input within ±10 V swings the pendulum above ~1.8 rad, however long (tested), so
+    the thesis's 3 s swing-up would be impossible.
 
     Args:
         arm_mass, arm_length, pendulum_mass, pendulum_length: kg, m.
@@ -67,8 +69,8 @@ class FurutaPendulum(OdeSystem):
         pendulum_mass: float = 0.024,
         pendulum_length: float = 0.129,
         rotor_inertia: float = 4.6e-6,
-        arm_damping: float = 1.5e-3,
-        pendulum_damping: float = 5e-4,
+        arm_damping: float = 2.7e-4,
+        pendulum_damping: float = 5e-5,
         resistance: float = 8.4,
         torque_constant: float = 0.042,
         back_emf_constant: float = 0.042,
