@@ -126,6 +126,31 @@ def test_triangular_exploration_is_bounded_and_periodic() -> None:
             np.testing.assert_allclose(signal[step:, k], signal[:-step, k], atol=1e-12)
 
 
+def test_integrated_triangular_exploration_moves_the_reference_along_the_triangle() -> None:
+    """integrated=True: the running sum of the actions (the motor angle) is the triangle
+    itself, starting level; each action (an angle change) stays within ±u_max."""
+    dt, amplitude = 1 / 30, 0.02
+    explore = TriangularWaveExploration(
+        u_max=np.radians(4.0),
+        action_dim=2,
+        rng=np.random.default_rng(5),
+        dt=dt,
+        amplitude=amplitude,
+        noise_std=0.0,
+        integrated=True,
+    )
+    actions = np.array([explore(np.zeros(8), t) for t in range(90)])
+    angles = np.cumsum(actions, axis=0)  # after steps 1 … 90
+    times = dt * np.arange(1, 91)[:, None]
+    cycle = np.remainder(times / explore.periods + 0.25, 1.0)
+    expected = amplitude * (4 * np.abs(cycle - 0.5) - 1)  # 0 at t = 0, rising first
+    np.testing.assert_allclose(angles, expected, atol=1e-12)
+    assert np.all(np.abs(actions) <= np.radians(4.0) + 1e-12)
+    assert angles.max() > 0.9 * amplitude and angles.min() < -0.9 * amplitude
+    explore(np.zeros(8), 0)  # a new rollout starts level again
+    assert np.allclose(explore.applied, explore.wave(1))
+
+
 def test_known_coordinates_move_the_motors_as_the_simulator_does() -> None:
     """Speed-integration with known coordinates: two GP outputs (the ball), the motors'
     next angle and speed exactly the simulator's, the ball integrated at constant

@@ -117,10 +117,18 @@ class TriangularWaveExploration:
     of the ball-and-plate), clipped to ±u_max. Each component's period is drawn from
     U(``min_period_s``, ``max_period_s``) and its phase from U(0, 1) periods, once.
 
+    With ``integrated`` the wave is the running sum of the actions instead — for an action
+    that is a change of a position reference (the ball-and-plate's motor-angle steps) the
+    noisy triangle is then the reference itself (a plate tilted back and forth) and the
+    action its change per step, clipped to ±u_max; the action's own triangle would sum to
+    parabolic swings that tilt the plate far and throw the ball off at once.
+
     Args:
         u_max: action bound. action_dim: d_u. rng: random source (the system's).
-        dt: sampling time in s. amplitude: peak of the wave (default u_max / 2).
+        dt: sampling time in s. amplitude: peak of the wave (default u_max / 2), in units of
+            the action, or of its sum with ``integrated``.
         noise_std: std of the added white noise (default amplitude / 4).
+        integrated: the wave is the sum of the actions (see above); it starts at zero.
     """
 
     def __init__(
@@ -133,20 +141,37 @@ class TriangularWaveExploration:
         noise_std: float | None = None,
         min_period_s: float = 0.5,
         max_period_s: float = 2.0,
+        integrated: bool = False,
     ) -> None:
         if not 2 * dt <= min_period_s <= max_period_s:
             raise ConfigError(
                 f"exploration needs 2 dt <= min_period_s <= max_period_s, got dt={dt}, "
                 f"{min_period_s}, {max_period_s}"
             )
-        self.amplitude = u_max / 2 if amplitude is None else min(amplitude, u_max)
+        if amplitude is None:
+            self.amplitude = u_max / 2
+        else:
+            self.amplitude = amplitude if integrated else min(amplitude, u_max)
         self.noise_std = self.amplitude / 4 if noise_std is None else noise_std
         self.periods = rng.uniform(min_period_s, max_period_s, size=action_dim)
-        self.phases = rng.uniform(0.0, 1.0, size=action_dim)
+        self.integrated = integrated
+        # integrated: the wave starts at 0 (a quarter period in), so the reference starts level
+        self.phases = np.full(action_dim, 0.25) if integrated else rng.uniform(0.0, 1.0, action_dim)
         self.u_max, self.action_dim, self.rng, self.dt = u_max, action_dim, rng, dt
+        self.applied = np.zeros(action_dim)  # integrated: the sum of the actions so far
+
+    def wave(self, step: int) -> np.ndarray:
+        """The noise-free triangle at ``step``, ``[d_u]``: −A … A … −A over a period."""
+        cycle = np.remainder(step * self.dt / self.periods + self.phases, 1.0)
+        return self.amplitude * (4 * np.abs(cycle - 0.5) - 1)
 
     def __call__(self, measurement: np.ndarray, step: int) -> np.ndarray:
-        cycle = np.remainder(step * self.dt / self.periods + self.phases, 1.0)
-        wave = self.amplitude * (4 * np.abs(cycle - 0.5) - 1)  # −A … A … −A over a period
         noise = self.noise_std * self.rng.standard_normal(self.action_dim)
-        return np.clip(wave + noise, -self.u_max, self.u_max)
+        if not self.integrated:
+            return np.clip(self.wave(step) + noise, -self.u_max, self.u_max)
+        if step == 0:
+            self.applied = np.zeros(self.action_dim)
+        target = self.wave(step + 1) + noise  # where the reference should be after this step
+        action = np.clip(target - self.applied, -self.u_max, self.u_max)
+        self.applied = self.applied + action
+        return action
