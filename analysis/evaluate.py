@@ -12,7 +12,8 @@ finished trial), then
   (with or without the simulated online estimator, as the run was trained),
 
 and applies the system's success criterion to every trajectory (thesis §3.3, Fig. 3.3).
-Writes ``evaluation/trial_KK.json`` in the run directory and prints a one-line summary.
+Writes ``evaluation/trial_KK.json`` in the run directory (the counts, each system run's
+start and metrics, and their mean and max) and prints a summary.
 
 With ``--starts INDEX=V1,V2,...`` it instead runs the policy once on the system from each
 fixed start (p(x0)'s mean with state component INDEX set to each value, as in the thesis's
@@ -65,13 +66,15 @@ def evaluate(run_dir: Path, trial: int | None, runs: int, seed: int) -> dict[str
     c = experiment.components
     system, rng = c.system, np.random.default_rng(seed)
 
-    system_success = []
+    system_success, system_runs = [], []
     for _ in tqdm(range(runs), desc=f"trial {trial} on the system", unit="run"):
         controller = PolicyController(c.policy, c.model, c.estimator)
-        trajectory = system.rollout(
-            controller, system.sample_initial_state(rng), system.num_steps, rng
+        x0 = system.sample_initial_state(rng)
+        metrics = system.evaluate(system.rollout(controller, x0, system.num_steps, rng))
+        system_success.append(bool(metrics.get("success", False)))
+        system_runs.append(
+            {"initial_state": x0.tolist(), **{k: _plain(v) for k, v in metrics.items()}}
         )
-        system_success.append(bool(system.evaluate(trajectory).get("success", False)))
 
     rollout = ParticleRollout.for_system(
         system, c.model, c.policy, c.cost, c.estimator, c.simulate_estimator
@@ -93,11 +96,27 @@ def evaluate(run_dir: Path, trial: int | None, runs: int, seed: int) -> dict[str
         "simulate_estimator": c.simulate_estimator,
         "system_successes": int(sum(system_success)),
         "model_successes": int(sum(model_success)),
+        "system_metrics": summarise_metrics(system_runs),
+        "system_runs": system_runs,
     }
     RunDirectory(run_dir).write_text(
         f"evaluation/trial_{trial:02d}.json", json.dumps(result, indent=2)
     )
     return result
+
+
+def summarise_metrics(runs: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
+    """Mean and max over runs of every numeric (non-boolean) metric the system reports."""
+    names = [
+        k for k, v in runs[0].items() if isinstance(v, int | float) and not isinstance(v, bool)
+    ]
+    return {
+        name: {
+            "mean": float(np.mean([run[name] for run in runs])),
+            "max": float(np.max([run[name] for run in runs])),
+        }
+        for name in names
+    }
 
 
 def parse_starts(text: str, state_dim: int) -> tuple[int, list[float]]:
@@ -195,6 +214,8 @@ def main() -> None:
         f"trial {result['trial']}: system {result['system_successes']}/{result['runs']}, "
         f"model {result['model_successes']}/{result['runs']} successes"
     )
+    for name, stats in result["system_metrics"].items():
+        print(f"  system {name}: mean {stats['mean']:.4g}, max {stats['max']:.4g}")  # noqa: T201
 
 
 if __name__ == "__main__":

@@ -171,6 +171,11 @@ def test_partially_measured_run_logs_position_readings(tmp_path: Path) -> None:
     result = json.loads((tmp_path / "evaluation" / "trial_01.json").read_text())
     assert result["runs"] == 4 and result["trial"] == 1 and result["simulate_estimator"]
     assert 0 <= result["system_successes"] <= 4 and 0 <= result["model_successes"] <= 4
+    runs = result["system_runs"]
+    assert len(runs) == 4 and sum(r["success"] for r in runs) == result["system_successes"]
+    costs = [r["eval_cost"] for r in runs]
+    assert result["system_metrics"]["eval_cost"] == {"mean": np.mean(costs), "max": max(costs)}
+    assert all(len(r["initial_state"]) == 4 for r in runs)
     bad = run_module("analysis.evaluate", str(tmp_path), "--trial", "7")
     assert bad.returncode != 0 and "--trial=7" in bad.stderr
     # fixed starts (the multimodal test of thesis Fig. 2.9): one run from each cart position
