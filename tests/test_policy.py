@@ -136,3 +136,18 @@ def test_bad_angle_centre_options_name_the_key() -> None:
         SquashedRBFPolicy(5, 1, 10.0, angle_centres="ring")
     with pytest.raises(ConfigError, match="angle_columns"):
         SquashedRBFPolicy(5, 1, 10.0, angle_centres="circle", angle_columns=[(1, 5)])
+
+
+def test_per_column_centre_ranges_bound_each_column(generator: torch.Generator) -> None:
+    ranges = [3.0, 3.0, 0.1, 0.1]
+    policy = SquashedRBFPolicy(4, 1, 1.0, num_basis=500, centre_range=ranges, generator=generator)
+    spread = policy.centres.detach().abs().amax(0).numpy()
+    # uniform on ±range: the largest of 500 draws lies within 2% of the bound
+    np.testing.assert_allclose(spread, ranges, rtol=0.02)
+    assert np.all(spread <= ranges)
+
+
+@pytest.mark.parametrize("bad", [[1.0, 2.0], [1.0, 1.0, 0.0, 1.0], "wide"])
+def test_bad_centre_range_names_the_key(bad: object) -> None:
+    with pytest.raises(ConfigError, match="policy.centre_range"):
+        SquashedRBFPolicy(4, 1, 1.0, centre_range=bad)  # type: ignore[arg-type]

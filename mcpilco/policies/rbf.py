@@ -103,8 +103,9 @@ class SquashedRBFPolicy(nn.Module):
     """π(x) = u_max tanh(Σ_i w_i exp(−‖(a_i − x)/ℓ‖²) / u_max), one output per action.
 
     One diagonal length-scale vector ℓ is shared by all basis functions. Initialisation
-    follows the public reference code: centres uniform in [−centre_range, centre_range],
-    weights uniform in [−u_max/2, u_max/2], ℓ = ``lengthscale``. With
+    follows the public reference code: centres uniform in [−centre_range, centre_range]
+    (one range for every input column, or one per column), weights uniform in
+    [−u_max/2, u_max/2], ℓ = ``lengthscale``. With
     ``angle_centres="circle"`` the centres' (sin θ, cos θ) columns named by
     ``angle_columns`` are drawn on the unit circle instead, (sin a, cos a) with a uniform
     in [−π, π) (as the reference code does for the cart-pole), so each basis function sits
@@ -115,7 +116,11 @@ class SquashedRBFPolicy(nn.Module):
 
     Args:
         input_dim: d_π. action_dim: d_u. u_max: action bound.
-        num_basis: n_b. lengthscale: initial ℓ. centre_range: see above.
+        num_basis: n_b. lengthscale: initial ℓ.
+        centre_range: half-width of the centres' initial range, a number or one per input
+            column (e.g. the UR5's narrow ranges for the tracking-error columns: with many
+            input columns and ranges much wider than ℓ, every initial activation is ~0 and
+            the policy starts with no gradient).
         angle_centres: ``uniform`` or ``circle``, see above.
         angle_columns: (sin column, cos column) pairs of the input (the model structure
             passes them; ignored with ``angle_centres="uniform"``).
@@ -129,7 +134,7 @@ class SquashedRBFPolicy(nn.Module):
         u_max: float,
         num_basis: int = 200,
         lengthscale: float = 1.0,
-        centre_range: float = math.pi,
+        centre_range: float | Sequence[float] = math.pi,
         angle_centres: str = "uniform",
         angle_columns: Sequence[tuple[int, int]] = (),
         generator: torch.Generator | None = None,
@@ -154,7 +159,23 @@ class SquashedRBFPolicy(nn.Module):
         self.u_max = float(u_max)
         self.num_basis = num_basis
         self.initial_lengthscale = lengthscale
-        self.centre_range = centre_range
+        try:
+            values = (
+                float(centre_range)
+                if isinstance(centre_range, (int, float))
+                else [float(v) for v in centre_range]
+            )
+        except (TypeError, ValueError):
+            values = None
+        ranges = torch.as_tensor(values if values is not None else [], dtype=torch.float64)
+        if values is None or (ranges.dim() == 1 and ranges.shape[0] != input_dim):
+            raise ConfigError(
+                f"policy.centre_range must be a number or {input_dim} numbers (one per policy "
+                f"input column), got {centre_range!r}"
+            )
+        if not bool(torch.all(ranges > 0)):
+            raise ConfigError(f"policy.centre_range must be > 0, got {centre_range!r}")
+        self.centre_range = ranges
         self.centres = nn.Parameter(torch.empty(num_basis, input_dim, dtype=torch.float64))
         self.log_lengthscale = nn.Parameter(torch.empty(input_dim, dtype=torch.float64))
         self.weights = nn.Parameter(torch.empty(num_basis, action_dim, dtype=torch.float64))
