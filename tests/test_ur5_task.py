@@ -121,3 +121,48 @@ def test_policy_reads_the_tracking_errors(ur5: UR5) -> None:
     assert inputs.shape == (2, 30)
     torch.testing.assert_close(inputs[:, 18:], torch.full((2, 12), -0.01, dtype=torch.float64))
     torch.testing.assert_close(inputs[:, :18], model.policy_inputs(states))
+
+
+def test_geared_damped_arm_is_held_by_its_gravity_torques_over_the_gear() -> None:
+    """The config's plant (gear 101, heavy damping, armature, gravity on): the control
+    u = g(q)/gear, with g(q) from mj_inverse of the bare model at rest, holds the arm still,
+    and a constant control u moves a joint at the damping's terminal speed gear·u/D."""
+    import mujoco
+
+    from mcpilco.systems.ur5_model import ur5_mjcf
+
+    damping = [65.0, 65.0, 65.0, 45.0, 45.0, 45.0]
+    arm = UR5(
+        gear=101.0,
+        armature=0.01,
+        joint_damping=damping,
+        gravity_compensation=False,
+        integrator="IMPLICITFAST",
+        u_max=1.0,
+    )
+    state = arm.reference.states[0].copy()
+    state[6:] = 0.0
+    bare = mujoco.MjModel.from_xml_string(ur5_mjcf())
+    data = mujoco.MjData(bare)
+    data.qpos[:] = state[:6]
+    mujoco.mj_inverse(bare, data)
+    hold = data.qfrc_inverse.copy() / 101.0
+    assert np.all(np.abs(hold) < 1.0)  # the arm can hold itself within u_max
+    after = state
+    for _ in range(25):
+        after = arm.step(after, hold)
+    np.testing.assert_allclose(after, state, atol=1e-9)
+    # wrist 3 turning about its own axis (its gravity load does not change): τ = D q̇
+    push = hold.copy()
+    push[5] += 0.2
+    after = state
+    for _ in range(50):
+        after = arm.step(after, push)
+    np.testing.assert_allclose(after[11], 101.0 * 0.2 / 45.0, rtol=1e-3)
+
+
+def test_bad_ur5_actuation_names_the_key() -> None:
+    with pytest.raises(ConfigError, match="system.joint_damping"):
+        UR5(joint_damping=[1.0, 2.0])
+    with pytest.raises(ConfigError, match="system.gear"):
+        UR5(gear=0.0)

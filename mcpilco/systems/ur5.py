@@ -117,14 +117,21 @@ class UR5(MechanicalSystem):
     """The UR5 in MuJoCo (:func:`~mcpilco.systems.ur5_model.ur5_mjcf`) tracking a circle:
     state ``[q, q̇]`` (rad, rad/s, 12), action the six joint torques (N m, |τ| ≤ u_max).
 
-    With ``gravity_compensation`` (default) the simulation runs without gravity, i.e. with a
-    perfect gravity compensation under the learned torques — the thesis's u_max of 1 N m
-    per joint could not hold the arm up otherwise (assumption: the thesis does not say).
-    p(x0) is centred on the reference's first state.
+    The action is each motor's control, the joint torque ``gear`` times it. With
+    ``gravity_compensation`` (the class default) the simulation runs without gravity, i.e.
+    with a perfect gravity compensation under the learned torques: with gear 1 the thesis's
+    u_max of 1 per joint could not hold the arm up. The config (``conf/system/ur5.yaml``)
+    follows the public reference code's UR5 model instead: gear 101 (so |τ| ≤ 101 N m),
+    joint damping 65 N m s/rad on the three large joints and 45 on the wrists, armature
+    0.01 kg m², gravity on. p(x0) is centred on the reference's first state.
 
     Args:
         circle_centre, circle_radius: the flange's circle (m). timestep: MuJoCo's step (s).
-        joint_damping: N m s/rad. success_error_mm: mean flange error that counts as a
+        joint_damping: N m s/rad, one value or one per joint. gear: joint torque per unit
+            of action (N m). armature: rotor inertia added to each joint (kg m²).
+        integrator: MuJoCo's integrator; heavy joint damping needs one that treats it
+            implicitly (``implicitfast``: RK4 diverges at damping 65 with armature 0.01).
+        success_error_mm: mean flange error that counts as a
             success. Others: see :class:`MechanicalSystem` (the thesis: T_s 0.02 s, 4 s,
             noise std 1e-3, x0 std 1e-3).
     """
@@ -149,7 +156,10 @@ class UR5(MechanicalSystem):
         circle_centre: Sequence[float] = (-0.5, -0.1, 0.3),
         circle_radius: float = 0.1,
         gravity_compensation: bool = True,
-        joint_damping: float = 0.0,
+        joint_damping: float | Sequence[float] = 0.0,
+        gear: float = 1.0,
+        armature: float = 0.0,
+        integrator: str = "RK4",
         timestep: float = 1e-3,
         success_error_mm: float = 2.0,
     ) -> None:
@@ -164,10 +174,16 @@ class UR5(MechanicalSystem):
             measured_indices,
             quantization,
         )
-        xml = ur5_mjcf(damping=joint_damping, torque_limit=u_max)
+        damping = joint_damping if isinstance(joint_damping, (int, float)) else list(joint_damping)
+        xml = ur5_mjcf(
+            damping=damping,
+            torque_limit=u_max,
+            gear=gear,
+            armature=armature,
+        )
         if gravity_compensation:
             xml = xml.replace('gravity="0 0 -9.81"', 'gravity="0 0 0"')
-        self.simulation = MujocoSimulation(xml, dt, timestep=timestep)
+        self.simulation = MujocoSimulation(xml, dt, timestep=timestep, integrator=integrator)
         self.success_error_mm = success_error_mm
 
     @property

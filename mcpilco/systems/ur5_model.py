@@ -11,7 +11,11 @@ is the DH chain by construction, which the tests check against the DH product.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+
+from mcpilco.errors import ConfigError
 
 DH_D = (0.089159, 0.0, 0.0, 0.10915, 0.09465, 0.0823)
 DH_A = (0.0, -0.425, -0.39225, 0.0, 0.0, 0.0)
@@ -61,10 +65,21 @@ def _cylinder_inertia(mass: float, length: float) -> str:
     return f"{side:.6g} {side:.6g} {axial:.6g}"
 
 
-def ur5_mjcf(damping: float = 0.0, torque_limit: float = 150.0) -> str:
-    """The UR5 as MJCF: six hinges with torque motors (gear 1, ±``torque_limit`` N m),
-    joint damping ``damping`` (N m s/rad), a ``flange`` site at the tool flange, no
-    collisions (the task is free-space tracking)."""
+def ur5_mjcf(
+    damping: float | Sequence[float] = 0.0,
+    torque_limit: float = 150.0,
+    gear: float = 1.0,
+    armature: float = 0.0,
+) -> str:
+    """The UR5 as MJCF: six hinges with torque motors (joint torque = ``gear`` × control,
+    control within ±``torque_limit``), joint damping ``damping`` (N m s/rad, one value or
+    one per joint), rotor inertia ``armature`` (kg m²) on every joint, a ``flange`` site at
+    the tool flange, no collisions (the task is free-space tracking)."""
+    dampings = [float(damping)] * 6 if isinstance(damping, (int, float)) else list(damping)
+    if len(dampings) != 6 or min(dampings) < 0:
+        raise ConfigError(f"system.joint_damping must be >= 0, one or six values: {damping!r}")
+    if gear <= 0 or armature < 0:
+        raise ConfigError(f"system.gear must be > 0 and system.armature >= 0: {gear}, {armature}")
     body = '<site name="flange" pos="0 0 0" size="0.01"/>'
     for i in reversed(range(6)):
         d, a, alpha = DH_D[i], DH_A[i], DH_ALPHA[i]
@@ -74,14 +89,15 @@ def ur5_mjcf(damping: float = 0.0, torque_limit: float = 150.0) -> str:
         length = float(np.hypot(a, d))
         body = (
             f'<body name="link{i + 1}">'
-            f'<joint name="joint{i + 1}" type="hinge" axis="0 0 1" damping="{damping}"/>'
+            f'<joint name="joint{i + 1}" type="hinge" axis="0 0 1" damping="{dampings[i]}" '
+            f'armature="{armature}"/>'
             f'<inertial pos="{local[0]:.6g} {local[1]:.6g} {local[2]:.6g}" '
             f'mass="{MASSES[i]}" diaginertia="{_cylinder_inertia(MASSES[i], length)}"/>'
             f'<body name="frame{i + 1}" pos="{a} 0 {d}" quat="{_quat_x(alpha)}">{body}</body>'
             "</body>"
         )
     motors = "".join(
-        f'<motor joint="joint{i + 1}" gear="1" ctrllimited="true" '
+        f'<motor joint="joint{i + 1}" gear="{gear}" ctrllimited="true" '
         f'ctrlrange="-{torque_limit} {torque_limit}"/>'
         for i in range(6)
     )
