@@ -115,7 +115,7 @@ class CircleReference:
 
 class UR5(MechanicalSystem):
     """The UR5 in MuJoCo (:func:`~mcpilco.systems.ur5_model.ur5_mjcf`) tracking a circle:
-    state ``[q, q̇]`` (rad, rad/s, 12), action the six joint torques (N m, |τ| ≤ u_max).
+    state ``[q, q̇]`` (rad, rad/s, 12), action the six motor controls (|u| ≤ u_max).
 
     The action is each motor's control, the joint torque ``gear`` times it. With
     ``gravity_compensation`` (the class default) the simulation runs without gravity, i.e.
@@ -130,7 +130,7 @@ class UR5(MechanicalSystem):
         joint_damping: N m s/rad, one value or one per joint. gear: joint torque per unit
             of action (N m). armature: rotor inertia added to each joint (kg m²).
         integrator: MuJoCo's integrator; heavy joint damping needs one that treats it
-            implicitly (``implicitfast``: RK4 diverges at damping 65 with armature 0.01).
+            implicitly (``IMPLICITFAST``: RK4 diverges at damping 65 with armature 0.01).
         success_error_mm: mean flange error that counts as a
             success. Others: see :class:`MechanicalSystem` (the thesis: T_s 0.02 s, 4 s,
             noise std 1e-3, x0 std 1e-3).
