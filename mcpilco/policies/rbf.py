@@ -160,15 +160,11 @@ class SquashedRBFPolicy(nn.Module):
         self.num_basis = num_basis
         self.initial_lengthscale = lengthscale
         try:
-            values = (
-                float(centre_range)
-                if isinstance(centre_range, (int, float))
-                else [float(v) for v in centre_range]
-            )
+            numbers = centre_range if isinstance(centre_range, (int, float)) else list(centre_range)
+            ranges = torch.tensor(numbers, dtype=torch.float64)
         except (TypeError, ValueError):
-            values = None
-        ranges = torch.as_tensor(values if values is not None else [], dtype=torch.float64)
-        if values is None or (ranges.dim() == 1 and ranges.shape[0] != input_dim):
+            ranges = torch.empty(0, 0)
+        if ranges.dim() > 1 or (ranges.dim() == 1 and ranges.shape[0] != input_dim):
             raise ConfigError(
                 f"policy.centre_range must be a number or {input_dim} numbers (one per policy "
                 f"input column), got {centre_range!r}"

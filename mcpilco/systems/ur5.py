@@ -174,13 +174,7 @@ class UR5(MechanicalSystem):
             measured_indices,
             quantization,
         )
-        damping = joint_damping if isinstance(joint_damping, (int, float)) else list(joint_damping)
-        xml = ur5_mjcf(
-            damping=damping,
-            torque_limit=u_max,
-            gear=gear,
-            armature=armature,
-        )
+        xml = ur5_mjcf(damping=joint_damping, torque_limit=u_max, gear=gear, armature=armature)
         if gravity_compensation:
             xml = xml.replace('gravity="0 0 -9.81"', 'gravity="0 0 0"')
         self.simulation = MujocoSimulation(xml, dt, timestep=timestep, integrator=integrator)
