@@ -133,7 +133,8 @@ class ExactGP(nn.Module):
     def hyperparameters(self) -> dict[str, list[float]]:
         """Constrained hyper-parameter values by name, for logs."""
         values = {"noise_std": self.noise_variance.sqrt().tolist()}
-        for name, parameter in self.kernel.named_parameters():
-            if name.split(".")[-1].startswith("log_"):
-                values[name.replace("log_", "")] = torch.exp(parameter).tolist()
+        for prefix, module in self.kernel.named_modules():
+            if isinstance(module, Kernel):
+                for name, value in module.constrained_hyperparameters().items():
+                    values[f"{prefix}.{name}" if prefix else name] = value.tolist()
         return values

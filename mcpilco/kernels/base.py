@@ -56,6 +56,16 @@ class Kernel(nn.Module, ABC):
     def diag(self, x: torch.Tensor) -> torch.Tensor:
         """Prior variances k(x, x) ``[G, N]`` of ``x [N, D]``."""
 
+    def constrained_hyperparameters(self) -> dict[str, torch.Tensor]:
+        """This kernel's own hyper-parameter values by name (not its sub-kernels'), for
+        logs: exp of every ``log_*`` parameter; kernels with other parametrisations add
+        theirs."""
+        return {
+            name.removeprefix("log_"): torch.exp(parameter)
+            for name, parameter in self.named_parameters(recurse=False)
+            if name.startswith("log_")
+        }
+
     def prepare(self, x2: torch.Tensor) -> PreparedKernel:
         """``x1 ↦ (k(x1, x2), k(x1, x1) diagonal)`` with everything that depends only on
         ``x2`` and the hyper-parameters computed once (predictions at fixed training
