@@ -34,6 +34,7 @@ KERNELS = {
     "se": lambda: SquaredExponential(SHAPE, lengthscale=[0.5, 1.0, 2.0], variance=2.0),
     "poly2": lambda: MultiplicativePolynomial(SHAPE, degree=2, offset=0.5, weight=[0.3, 0.2, 0.1]),
     "linear_subset": lambda: Linear(SHAPE, weight=[0.5, 2.0], active_dims=[0, 2]),
+    "linear_capped": lambda: Linear(SHAPE, weight=[0.5, 2.0, 1.0], max_weight=5.0),
     "physical": lambda: PhysicalBasis(SHAPE, weight=[1.0, 0.5, 0.2]),
     "sp": lambda: Sum(SHAPE, [lambda s: PhysicalBasis(s), lambda s: SquaredExponential(s)]),
     "se_p2": lambda: Sum(
@@ -111,3 +112,48 @@ def test_se_prepared_cross_gradcheck(generator: torch.Generator) -> None:
     twice_z2_t = torch.randn(2, 3, 4, generator=generator, dtype=torch.float64)
     offset = torch.randn(2, 1, 4, generator=generator, dtype=torch.float64)
     assert gradcheck(lambda a: _PreparedCross.apply(a, inverse, twice_z2_t, offset), (x,))
+
+
+def test_capped_linear_starts_at_its_weights_and_stays_below_the_cap(
+    inputs: torch.Tensor,
+) -> None:
+    capped = Linear(SHAPE, weight=[0.5, 2.0, 1.0], max_weight=5.0)
+    free = Linear(SHAPE, weight=[0.5, 2.0, 1.0])
+    torch.testing.assert_close(capped(inputs, inputs), free(inputs, inputs))
+    # x Σ xᵀ with Σ = diag(weights), against the explicit product
+    sigma = torch.diag(torch.tensor([0.5, 2.0, 1.0], dtype=torch.float64))
+    torch.testing.assert_close(capped(inputs, inputs)[0], inputs @ sigma @ inputs.T)
+    with torch.no_grad():
+        capped.log_weight.fill_(50.0)
+    assert torch.all(capped.weights() <= 5.0)
+    torch.testing.assert_close(capped.weights(), torch.full((2, 3), 5.0, dtype=torch.float64))
+
+
+def test_capped_linear_weight_of_a_flat_column_stays_bounded_in_a_fit(
+    generator: torch.Generator,
+) -> None:
+    """A column of tiny values (1e-4) that follows what the other inputs leave unexplained
+    (as the UR5's wrist torques, ~1e-3, react to its tracking errors): marginal likelihood
+    explains the residual with that column's slope, ~100, i.e. a weight ~1e4; the cap
+    holds it."""
+    from mcpilco.gp import ExactGP, MarginalLikelihoodFit
+
+    shape = KernelShape(num_outputs=1, input_dim=2)
+    x = torch.randn(60, 2, generator=generator, dtype=torch.float64)
+    residual = 1e-2 * torch.sin(3.0 * x[:, 0])
+    x[:, 1] = 1e-2 * residual
+    noise = 1e-3 * torch.randn(60, generator=generator, dtype=torch.float64)
+    y = (2.0 * x[:, 0] + residual + noise)[:, None]
+    weights = {}
+    for cap in (None, 100.0):
+        gp = ExactGP(Linear(shape, max_weight=cap), noise_std=0.1)
+        gp.set_data(x, y)
+        MarginalLikelihoodFit()(gp)
+        weights[cap] = gp.hyperparameters()["weight"][0]
+        mean, _ = gp.predict(x)
+        # either way the fit keeps the main slope: within the residual's 1e-2 of 2 x0
+        assert float((mean[0].detach() - 2.0 * x[:, 0]).abs().max()) < 0.03  # mean [G, N]
+    assert weights[None][1] > 1e3
+    assert weights[100.0][1] <= 100.0
+    with pytest.raises(Exception, match="max_weight"):
+        Linear(shape, weight=2.0, max_weight=1.0)

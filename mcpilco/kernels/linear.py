@@ -6,16 +6,24 @@ from collections.abc import Sequence
 
 import torch
 
+from mcpilco.errors import ConfigError
 from mcpilco.kernels.base import Kernel, KernelShape, check_dims, select_dims
 
 
 class Linear(Kernel):
     """k(x, x') = x_Sᵀ Σ x'_S on the columns S = ``active_dims``, Σ diagonal and positive.
 
+    With ``max_weight`` each entry of Σ is ``max_weight · σ(r)`` (σ the logistic function,
+    r trained) instead of exp(r): a ceiling on the prior variance of every slope. Marginal
+    likelihood alone lets the weight of a column that barely varies in the data grow
+    without bound (the UR5's wrist torques, ~1e-3 in its exploration, reached weights of
+    1e10, and the model then predicted velocity changes of ~500 rad/s per step).
+
     Args:
         shape: outputs and input dimension.
         weight: initial diagonal of Σ.
         active_dims: input columns S (all when None).
+        max_weight: ceiling on the entries of Σ (None: none); above every initial weight.
     """
 
     def __init__(
@@ -23,17 +31,36 @@ class Linear(Kernel):
         shape: KernelShape,
         weight: float | Sequence[float] = 1.0,
         active_dims: Sequence[int] | None = None,
+        max_weight: float | None = None,
     ) -> None:
         super().__init__(shape)
         self.active_dims = None if active_dims is None else tuple(active_dims)
         size = check_dims("Linear", self.active_dims, shape.input_dim)
         self.log_weight = self._log_parameter("weight", weight, size)  # [G, D_S]
+        self.max_weight = max_weight
+        if max_weight is not None:
+            if not max_weight > float(torch.exp(self.log_weight.detach()).max()):
+                raise ConfigError(
+                    f"kernel Linear.max_weight must exceed the initial weight {weight!r}, "
+                    f"got {max_weight!r}"
+                )
+            with torch.no_grad():  # r = logit(weight / max_weight), stored in log_weight
+                self.log_weight.copy_(torch.logit(torch.exp(self.log_weight) / max_weight))
+
+    def weights(self) -> torch.Tensor:
+        """The diagonal of Σ, ``[G, D_S]``."""
+        if self.max_weight is None:
+            return torch.exp(self.log_weight)
+        return self.max_weight * torch.sigmoid(self.log_weight)
+
+    def constrained_hyperparameters(self) -> dict[str, torch.Tensor]:
+        return {"weight": self.weights()}
 
     def forward(self, x1: torch.Tensor, x2: torch.Tensor) -> torch.Tensor:
         z1 = select_dims(x1, self.active_dims)
         z2 = select_dims(x2, self.active_dims)
-        return torch.matmul(z1 * torch.exp(self.log_weight)[:, None, :], z2.transpose(-1, -2))
+        return torch.matmul(z1 * self.weights()[:, None, :], z2.transpose(-1, -2))
 
     def diag(self, x: torch.Tensor) -> torch.Tensor:
         z = select_dims(x, self.active_dims)
-        return torch.matmul(torch.exp(self.log_weight), z.square().transpose(-1, -2))
+        return torch.matmul(self.weights(), z.square().transpose(-1, -2))
