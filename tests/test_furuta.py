@@ -166,8 +166,8 @@ def swing_up_and_balance(system: FurutaPendulum, x0: np.ndarray) -> np.ndarray:
             energy = 0.5 * system.pendulum_inertia * state[3] ** 2 + mass * system.gravity * (
                 half_length * (1 - np.cos(state[2]))
             )
-            pumping = -400.0 * (upright_energy - energy) * np.sign(
-                state[3] * np.cos(state[2]) + 1e-12
+            pumping = (
+                -400.0 * (upright_energy - energy) * np.sign(state[3] * np.cos(state[2]) + 1e-12)
             )
             voltage = pumping - 8.0 * state[0] - 0.2 * state[1]
         states.append(system.step(state, np.clip([voltage], -system.u_max, system.u_max)))
