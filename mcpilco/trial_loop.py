@@ -138,8 +138,7 @@ class TrialLoop:
             trajectory = self._interact(controller)
             rollout_seconds = time.perf_counter() - start
             self.storage.save_checkpoint(trial, "policy", self.c.policy.state_dict())
-            assert self.c.model.gp is not None
-            self.storage.save_checkpoint(trial, "model", self.c.model.gp.state_dict())
+            self.storage.save_checkpoint(trial, "model", self.c.model.checkpoint())
             row = {
                 "gp_samples": fit.num_samples,
                 "gp_kept": fit.num_kept,
@@ -180,8 +179,7 @@ class TrialLoop:
             raise NotPositiveDefiniteError(
                 f"trial {trial}: {error} (trials 0..{trial - 1} are saved in {self.storage.path})"
             ) from error
-        assert self.c.model.gp is not None
-        hyperparameters = self.c.model.gp.hyperparameters()
+        hyperparameters = self.c.model.hyperparameters()
         for observer in self.observers:
             observer.model_fitted(trial, hyperparameters)
         return report

@@ -47,6 +47,7 @@ COUPLED = [g for g in GROUPS if g not in INDEPENDENT]
 
 TRACKING_SYSTEMS = {"ur5"}  # systems with reference_states: tracking costs/PD need one
 BASIS_SYSTEMS = {"cartpole", "cartpole_mujoco", "furuta", "ball_and_plate"}  # for kernel=sp
+TORCH_ODE_SYSTEMS = {"cartpole", "cartpole_mujoco", "furuta"}  # for model=true_dynamics
 
 
 def refusal(chosen: dict[str, str]) -> str | None:
@@ -57,6 +58,8 @@ def refusal(chosen: dict[str, str]) -> str | None:
         return "tracking task"
     if chosen.get("model") == "derivative_free" and chosen.get("estimator", "none") != "none":
         return "estimator=none"  # DF learns from raw readings
+    if chosen.get("model") == "true_dynamics" and system not in TORCH_ODE_SYSTEMS:
+        return "torch equations of motion"
     if chosen.get("kernel") == "sp" and system not in BASIS_SYSTEMS:
         return "needs a physical basis"
     if chosen.get("cost") == "tracking" and not tracking:

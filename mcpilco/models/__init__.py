@@ -5,6 +5,7 @@ from mcpilco.models.derivative_free import DerivativeFree
 from mcpilco.models.features import AngleFeatures
 from mcpilco.models.full_state import FullState
 from mcpilco.models.speed_integration import SpeedIntegration
+from mcpilco.models.true_dynamics import TrueDynamics
 
 __all__ = [
     "AngleFeatures",
@@ -13,4 +14,5 @@ __all__ = [
     "FullState",
     "ModelStructure",
     "SpeedIntegration",
+    "TrueDynamics",
 ]

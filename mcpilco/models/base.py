@@ -251,6 +251,18 @@ class ModelStructure(nn.Module, ABC):
         deltas = self.gp.sample(self.gp_inputs(particles, actions, encoded), noise)
         return self.transition(particles, actions, deltas)
 
+    def checkpoint(self) -> dict[str, torch.Tensor]:
+        """The fitted model's state to save after a trial (:meth:`load_gp` restores it)."""
+        if self.gp is None:
+            raise RuntimeError("model.checkpoint called before model.fit")
+        return self.gp.state_dict()
+
+    def hyperparameters(self) -> dict[str, list[float]]:
+        """The fitted GPs' hyper-parameters by name, for logs."""
+        if self.gp is None:
+            raise RuntimeError("model.hyperparameters called before model.fit")
+        return self.gp.hyperparameters()
+
     def load_gp(self, state: dict[str, torch.Tensor]) -> None:
         """Restore a fitted GP from :meth:`gp_state` output (a checkpoint)."""
         self.gp = self.new_gp()

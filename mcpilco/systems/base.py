@@ -203,6 +203,14 @@ class OdeSystem(MechanicalSystem):
     def derivatives(self, state: np.ndarray, action: np.ndarray) -> np.ndarray:
         """ẋ ``[d_x]`` at ``state`` ``[d_x]`` under ``action`` ``[d_u]``."""
 
+    def torch_derivatives(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        """ẋ ``[..., d_x]`` of states ``[..., d_x]`` under actions ``[..., d_u]``, in torch
+        and differentiable; optional, for optimising a policy on the true equations of
+        motion (:class:`mcpilco.models.TrueDynamics`, a diagnostic)."""
+        raise NotImplementedError(
+            f"{type(self).__name__} has no torch equations of motion (torch_derivatives)"
+        )
+
     def step(self, state: np.ndarray, action: np.ndarray) -> np.ndarray:
         solution = solve_ivp(
             lambda _t, x: self.derivatives(x, action),

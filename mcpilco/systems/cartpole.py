@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 import torch
@@ -71,20 +72,47 @@ class CartPole(OdeSystem):
         self.success_window = success_window
         self.eval_length_scale = eval_length_scale
 
-    def derivatives(self, state: np.ndarray, action: np.ndarray) -> np.ndarray:
-        """Equations of motion of App. A.1 (Lagrangian, pole as a uniform rod)."""
-        _, p_dot, theta, theta_dot = state
-        force = float(action[0]) - self.friction * p_dot
+    def accelerations(
+        self,
+        cart_velocity: Any,
+        angle: Any,
+        angular_velocity: Any,
+        force: Any,
+        sin: Callable[[Any], Any],
+        cos: Callable[[Any], Any],
+    ) -> tuple[Any, Any]:
+        """(p̈ in m/s², θ̈ in rad/s²) of App. A.1 (Lagrangian, pole as a uniform rod) for
+        numpy or torch arrays of matching shape: one formula for :meth:`derivatives` and
+        :meth:`torch_derivatives`."""
+        force = force - self.friction * cart_velocity
         big_m, m, length, g = self.cart_mass, self.pole_mass, self.pole_length, self.gravity
-        s, c = np.sin(theta), np.cos(theta)
+        s, c = sin(angle), cos(angle)
         denominator = 4.0 * (big_m + m) - 3.0 * m * c**2
-        p_ddot = (2.0 * m * length * theta_dot**2 * s + 3.0 * m * g * s * c + 4.0 * force) / (
-            denominator
-        )
+        p_ddot = (
+            2.0 * m * length * angular_velocity**2 * s + 3.0 * m * g * s * c + 4.0 * force
+        ) / denominator
         theta_ddot = (
-            -3.0 * m * length * theta_dot**2 * s * c - 6.0 * (big_m + m) * g * s - 6.0 * force * c
+            -3.0 * m * length * angular_velocity**2 * s * c
+            - 6.0 * (big_m + m) * g * s
+            - 6.0 * force * c
         ) / (length * denominator)
+        return p_ddot, theta_ddot
+
+    def derivatives(self, state: np.ndarray, action: np.ndarray) -> np.ndarray:
+        """Equations of motion of App. A.1."""
+        _, p_dot, theta, theta_dot = state
+        p_ddot, theta_ddot = self.accelerations(
+            p_dot, theta, theta_dot, float(action[0]), np.sin, np.cos
+        )
         return np.array([p_dot, p_ddot, theta_dot, theta_ddot])
+
+    def torch_derivatives(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        """ẋ ``[..., 4]`` of states ``[..., 4]`` under forces ``[..., 1]``, differentiable."""
+        p_dot, theta, theta_dot = states[..., 1], states[..., 2], states[..., 3]
+        p_ddot, theta_ddot = self.accelerations(
+            p_dot, theta, theta_dot, actions[..., 0], torch.sin, torch.cos
+        )
+        return torch.stack([p_dot, p_ddot, theta_dot, theta_ddot], dim=-1)
 
     def energy(self, state: np.ndarray) -> float:
         """Total mechanical energy (J), potential zero at the pivot height."""

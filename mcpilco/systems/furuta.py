@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 import torch
@@ -101,7 +102,7 @@ class FurutaPendulum(OdeSystem):
         self.success_window = success_window
         self.success_angle_deg = success_angle_deg
 
-    def motor_torque(self, voltage: float, arm_velocity: float) -> float:
+    def motor_torque(self, voltage: Any, arm_velocity: Any) -> Any:
         """τ = k_t (V − k_m θ̇h) / R_m (N m; armature inductance neglected)."""
         return (
             self.torque_constant
@@ -109,33 +110,51 @@ class FurutaPendulum(OdeSystem):
             / (self.resistance)
         )
 
-    def derivatives(self, state: np.ndarray, action: np.ndarray) -> np.ndarray:
-        _, arm_velocity, angle, velocity = state
-        torque = self.motor_torque(float(action[0]), arm_velocity)
-        s, c = np.sin(angle), np.cos(angle)
+    def accelerations(
+        self,
+        arm_velocity: Any,
+        angle: Any,
+        velocity: Any,
+        voltage: Any,
+        sin: Callable[[Any], Any],
+        cos: Callable[[Any], Any],
+    ) -> tuple[Any, Any]:
+        """(θ̈h, θ̈v) in rad/s² from θ̇h, θv, θ̇v and the voltage, for numpy or torch arrays
+        of any (matching) shape: the 2×2 mass matrix is inverted in closed form, so one
+        formula serves :meth:`derivatives` and :meth:`torch_derivatives`."""
+        torque = self.motor_torque(voltage, arm_velocity)
+        s, c = sin(angle), cos(angle)
         coupling = self.pendulum_mass * self.arm_length * self.pendulum_length / 2  # m_p L_h l
         j_v = self.pendulum_inertia
-        mass = np.array(
-            [
-                [
-                    self.arm_inertia + self.pendulum_mass * self.arm_length**2 + j_v * s * s,
-                    coupling * c,
-                ],
-                [coupling * c, j_v],
-            ]
-        )
+        arm_mass_term = self.arm_inertia + self.pendulum_mass * self.arm_length**2 + j_v * s * s
+        off_diagonal = coupling * c
         gravity_torque = self.pendulum_mass * self.gravity * self.pendulum_length / 2 * s
-        forces = np.array(
-            [
-                torque
-                - self.arm_damping * arm_velocity
-                - 2 * j_v * s * c * arm_velocity * velocity
-                + coupling * s * velocity**2,
-                -self.pendulum_damping * velocity + j_v * s * c * arm_velocity**2 - gravity_torque,
-            ]
+        arm_force = (
+            torque
+            - self.arm_damping * arm_velocity
+            - 2 * j_v * s * c * arm_velocity * velocity
+            + coupling * s * velocity**2
         )
-        arm_acceleration, acceleration = np.linalg.solve(mass, forces)
+        force = -self.pendulum_damping * velocity + j_v * s * c * arm_velocity**2 - gravity_torque
+        determinant = arm_mass_term * j_v - off_diagonal**2
+        arm_acceleration = (j_v * arm_force - off_diagonal * force) / determinant
+        acceleration = (arm_mass_term * force - off_diagonal * arm_force) / determinant
+        return arm_acceleration, acceleration
+
+    def derivatives(self, state: np.ndarray, action: np.ndarray) -> np.ndarray:
+        _, arm_velocity, angle, velocity = state
+        arm_acceleration, acceleration = self.accelerations(
+            arm_velocity, angle, velocity, float(action[0]), np.sin, np.cos
+        )
         return np.array([arm_velocity, arm_acceleration, velocity, acceleration])
+
+    def torch_derivatives(self, states: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        """ẋ ``[..., 4]`` of states ``[..., 4]`` under voltages ``[..., 1]``, differentiable."""
+        arm_velocity, angle, velocity = states[..., 1], states[..., 2], states[..., 3]
+        arm_acceleration, acceleration = self.accelerations(
+            arm_velocity, angle, velocity, actions[..., 0], torch.sin, torch.cos
+        )
+        return torch.stack([arm_velocity, arm_acceleration, velocity, acceleration], dim=-1)
 
     def energy(self, state: np.ndarray) -> float:
         """Kinetic + potential energy (J), zero potential with the pendulum at the pivot."""
