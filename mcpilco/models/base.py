@@ -264,7 +264,7 @@ class ModelStructure(nn.Module, ABC):
         return self.gp.hyperparameters()
 
     def load_gp(self, state: dict[str, torch.Tensor]) -> None:
-        """Restore a fitted GP from :meth:`gp_state` output (a checkpoint)."""
+        """Restore a fitted GP from :meth:`checkpoint` output (a saved checkpoint)."""
         self.gp = self.new_gp()
         self.gp.set_data(state["train_inputs"], state["train_targets"])
         self.gp.load_state_dict(state)
