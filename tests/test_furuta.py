@@ -96,23 +96,35 @@ def test_config_cost_equals_eq_3_2_and_sp_model_builds() -> None:
     assert c.model.gp is not None and c.model.gp.train_inputs.shape == (30, 7)
 
 
+def pumping_voltage(
+    system: FurutaPendulum,
+    state: np.ndarray,
+    energy_gain: float,
+    arm_gain: float,
+    arm_damping: float,
+) -> float:
+    """Energy pumping with arm centring (V, unclipped):
+    energy_gain (E_up − E_v)(−sign(θ̇v cos θv)) − arm_gain θh − arm_damping θ̇h, with E_v the
+    pendulum's energy above hanging and E_up its value upright."""
+    mass, half_length = system.pendulum_mass, system.pendulum_length / 2
+    upright_energy = 2 * mass * system.gravity * half_length
+    potential = mass * system.gravity * half_length * (1 - np.cos(state[2]))
+    energy = 0.5 * system.pendulum_inertia * state[3] ** 2 + potential
+    pumping = energy_gain * (upright_energy - energy)
+    pumping *= -np.sign(state[3] * np.cos(state[2]) + 1e-12)
+    return float(pumping - arm_gain * state[0] - arm_damping * state[1])
+
+
 def energy_pumping_peak(system: FurutaPendulum, steps: int) -> tuple[float, int | None]:
     """Full-voltage energy pumping (u = −u_max sign(θ̇v cos θv) while the pendulum's energy is
     below the upright value, an arm-centring term otherwise) from θv = 0.1 rad, held per step
     as the learner's actions are. Returns the largest |θv| reached and the first step within
     0.3 rad of upright (None if never)."""
-    mass, half_length = system.pendulum_mass, system.pendulum_length / 2
-    upright_energy = 2 * mass * system.gravity * half_length
-
-    def pendulum_energy(state: np.ndarray) -> float:
-        potential = mass * system.gravity * half_length * (1 - np.cos(state[2]))
-        return 0.5 * system.pendulum_inertia * state[3] ** 2 + potential
-
     state, peak, first_up = np.array([0.0, 0.0, 0.1, 0.0]), 0.0, None
     for step in range(steps):
-        pumping = 2e3 * (upright_energy - pendulum_energy(state))
-        pumping *= -np.sign(state[3] * np.cos(state[2]) + 1e-12)
-        voltage = np.clip(pumping - 2.0 * state[0] - 0.1 * state[1], -system.u_max, system.u_max)
+        voltage = np.clip(
+            pumping_voltage(system, state, 2e3, 2.0, 0.1), -system.u_max, system.u_max
+        )
         state = system.step(state, np.array([voltage]))
         peak = max(peak, abs(state[2]))
         if first_up is None and abs(abs(state[2]) - np.pi) < 0.3:
@@ -153,8 +165,6 @@ def swing_up_and_balance(system: FurutaPendulum, x0: np.ndarray) -> np.ndarray:
     gain = np.linalg.solve(
         r_matrix + b_matrix.T @ riccati @ b_matrix, b_matrix.T @ riccati @ a_matrix
     )[0]
-    mass, half_length = system.pendulum_mass, system.pendulum_length / 2
-    upright_energy = 2 * mass * system.gravity * half_length
     states = [x0]
     for _ in range(round(system.trial_duration / system.dt)):
         state = states[-1]
@@ -163,13 +173,7 @@ def swing_up_and_balance(system: FurutaPendulum, x0: np.ndarray) -> np.ndarray:
         if abs(error[2]) < 0.3:
             voltage = -gain @ error
         else:
-            energy = 0.5 * system.pendulum_inertia * state[3] ** 2 + mass * system.gravity * (
-                half_length * (1 - np.cos(state[2]))
-            )
-            pumping = (
-                -400.0 * (upright_energy - energy) * np.sign(state[3] * np.cos(state[2]) + 1e-12)
-            )
-            voltage = pumping - 8.0 * state[0] - 0.2 * state[1]
+            voltage = pumping_voltage(system, state, 400.0, 8.0, 0.2)
         states.append(system.step(state, np.clip([voltage], -system.u_max, system.u_max)))
     return np.array(states)
 

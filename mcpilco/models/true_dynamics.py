@@ -38,7 +38,7 @@ class TrueDynamics(SpeedIntegration):
             )
         try:
             probe = torch.zeros(1, self.system.state_dim, dtype=torch.float64)
-            self.system.torch_derivatives(probe, torch.zeros(1, self.system.action_dim))
+            self.system.torch_derivatives(probe, probe.new_zeros(1, self.system.action_dim))
         except NotImplementedError as error:
             raise ConfigError(str(error)) from None
         if not isinstance(substeps, int) or substeps < 1:
