@@ -126,6 +126,7 @@ class TrialLoop:
                 "dropout": result.dropouts,
                 "learning_rate": result.learning_rates,
                 "signal": result.signals,
+                "horizon": result.horizons,
             }
             self.storage.save_optimization_trace(trial, trace)
             start = time.perf_counter()

@@ -26,9 +26,10 @@ def logging_overhead(
     states = rng.normal(size=(61, 4))
     trajectory = Trajectory(states, states, rng.normal(size=(60, 1)), 0.05)
     particles = rng.normal(size=(61, 400, 4))
-    trace = {
+    trace: dict[str, list[float]] = {
         k: rng.normal(size=steps).tolist() for k in ("cost", "dropout", "learning_rate", "signal")
     }
+    trace["horizon"] = [60.0] * steps
     with tempfile.TemporaryDirectory() as folder:
         observers = [
             McapLogger(folder),

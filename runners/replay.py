@@ -44,7 +44,10 @@ def replay(run_log: RunLog, streamer: RerunStreamer, trials: list[int]) -> None:
         if trace is not None and len(trace):
             streamer.optimized(
                 trial,
-                {k: trace[k].tolist() for k in ("cost", "dropout", "learning_rate", "signal")},
+                {
+                    k: trace[k].tolist()
+                    for k in ("cost", "dropout", "learning_rate", "signal", "horizon")
+                },
             )
         if trial in run_log.particles:
             particles = run_log.particles[trial]

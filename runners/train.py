@@ -119,7 +119,9 @@ def train(cfg: DictConfig) -> None:
                 bar.close()
             bars[trial] = tqdm(desc=f"trial {trial}/{experiment.num_trials}", unit="step")
         bars[trial].update(1)
-        bars[trial].set_postfix(J=f"{info.cost:.3f}", p_d=info.dropout, lr=info.learning_rate)
+        bars[trial].set_postfix(
+            J=f"{info.cost:.3f}", p_d=info.dropout, lr=info.learning_rate, T=info.horizon
+        )
 
     try:
         loop.run(on_step=on_step)

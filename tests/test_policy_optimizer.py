@@ -28,6 +28,7 @@ class LinearCostRollout:
         self.policy = nn.Module()
         self.policy.theta = nn.Parameter(torch.zeros((), dtype=torch.float64))
         self.model = nn.Module()
+        self.horizon = 1
         self.thetas: list[float] = []
 
     def __call__(self, particles: int, dropout: float, generator: object) -> _Cost:
@@ -86,3 +87,58 @@ def test_a_kept_adam_carries_its_moments_through_the_reduction() -> None:
 def test_restart_flag_must_be_boolean() -> None:
     with pytest.raises(ConfigError, match="optimizer.restart_adam_on_reduction"):
         PolicyOptimizer(restart_adam_on_reduction="yes")  # type: ignore[arg-type]
+
+
+class HorizonRecordingRollout(LinearCostRollout):
+    """:class:`LinearCostRollout` that records the horizon it is called with (as the
+    optimiser sets it)."""
+
+    def __init__(self, horizon: int) -> None:
+        super().__init__()
+        self.horizon = horizon
+        self.horizons: list[int] = []
+        self.dropouts: list[float] = []
+
+    def __call__(self, particles: int, dropout: float, generator: object) -> _Cost:
+        self.horizons.append(self.horizon)
+        self.dropouts.append(dropout)
+        return super().__call__(particles, dropout, generator)
+
+
+def test_a_horizon_curriculum_shares_the_steps_among_growing_horizons() -> None:
+    rollout = HorizonRecordingRollout(horizon=90)
+    optimizer = PolicyOptimizer(
+        num_particles=1,
+        max_steps_first_trial=10,
+        schedule={"window": 1000, "learning_rate_min": 1e-9},  # no early stop
+        horizon_stages=[1 / 3, 0.5, 1.0],
+    )
+    result = optimizer.optimize(rollout, trial=1, generator=None)  # type: ignore[arg-type]
+    # 10 steps over 3 stages: 3, 3 and the remaining 4; horizons ⌈90/3⌉, ⌈45⌉, 90.
+    assert rollout.horizons == [30] * 3 + [45] * 3 + [90] * 4
+    assert result.horizons == rollout.horizons
+    assert rollout.horizon == 90  # restored
+    assert rollout.dropouts == [0.25] * 3 + [0.0] * 7  # dropout in the first stage only
+    # Each stage starts a fresh Adam: its first update is Adam's first step for that
+    # step's gradient alone (1e-3 up to step REDUCTION_STEP, 1 after).
+    updates = [b - a for a, b in zip(rollout.thetas[:-1], rollout.thetas[1:], strict=True)]
+    for first in (3, 6):
+        gradient = 1e-3 if first <= REDUCTION_STEP else 1.0
+        assert updates[first] == pytest.approx(adam_step([gradient], 0.01), rel=1e-9)
+    # ... which a continued Adam would not take at step 6 (its moments remember 1e-3).
+    assert abs(adam_step([1e-3] * 4 + [1.0] * 3, 0.01)) < 0.9 * abs(updates[6])
+
+
+def test_without_a_curriculum_the_whole_trial_uses_the_full_horizon() -> None:
+    rollout = HorizonRecordingRollout(horizon=60)
+    optimizer = PolicyOptimizer(num_particles=1, max_steps_first_trial=4)
+    result = optimizer.optimize(rollout, trial=1, generator=None)  # type: ignore[arg-type]
+    assert rollout.horizons == [60] * 4 and result.horizons == [60] * 4
+
+
+@pytest.mark.parametrize(
+    "stages", [[0.5], [0.5, 0.4, 1.0], [0.0, 1.0], [0.5, 1.5], [], "half", [0.5, 0.5, 1.0]]
+)
+def test_bad_horizon_stages_name_the_key(stages: object) -> None:
+    with pytest.raises(ConfigError, match="optimizer.horizon_stages"):
+        PolicyOptimizer(horizon_stages=stages)  # type: ignore[arg-type]

@@ -75,7 +75,7 @@ def test_smoke_run_writes_every_phase_and_artefact(tmp_path: Path, kernel: str) 
     trajectory = run.load_trajectory(2)
     assert trajectory.states.shape == (21, 4) and trajectory.actions.shape == (20, 1)
     trace = pd.read_csv(tmp_path / "optimization" / "trial_01.csv")
-    assert list(trace.columns) == ["step", "cost", "dropout", "learning_rate", "signal"]
+    assert list(trace.columns) == ["step", "cost", "dropout", "learning_rate", "signal", "horizon"]
     table = load_runs([tmp_path])
     assert table.loc[0, "kernel"] == "PI+SE" and table.loc[0, "trials_done"] == 2
     assert table.loc[0, "cost_T2"] == summary.loc[2, "eval_cost"]

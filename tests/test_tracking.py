@@ -66,6 +66,7 @@ def test_log_holds_every_rollout_and_the_metadata(tmp_path: Path) -> None:
     assert log.trials["trial"].tolist() == [0, 1, 2]
     assert log.particles[2]["states"].shape == (21, 60, 4)
     assert len(log.optimization) == 6 and not log.truncated
+    assert log.optimization["horizon"].tolist() == [20] * 6  # no curriculum: the whole trial
     figure = plot_trial(log, 2)
     figure.savefig(tmp_path / "particles.png")
     assert (tmp_path / "particles.png").stat().st_size > 10_000

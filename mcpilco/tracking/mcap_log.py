@@ -103,10 +103,9 @@ class McapLogger(TrialObserver):
             )
 
     def optimized(self, trial: int, trace: Mapping[str, list[float]]) -> None:
-        for step, values in enumerate(
-            zip(*(trace[k] for k in ("cost", "dropout", "learning_rate", "signal")), strict=True)
-        ):
-            cost, dropout, learning_rate, signal = values
+        keys = ("cost", "dropout", "learning_rate", "signal", "horizon")
+        for step, values in enumerate(zip(*(trace[k] for k in keys), strict=True)):
+            cost, dropout, learning_rate, signal, horizon = values
             self._write(
                 "/optimization",
                 schema.OptimizationStep(
@@ -116,6 +115,7 @@ class McapLogger(TrialObserver):
                     dropout=dropout,
                     learning_rate=learning_rate,
                     signal=signal,
+                    horizon=int(horizon),
                 ),
             )
 

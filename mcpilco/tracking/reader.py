@@ -122,7 +122,15 @@ def read_run_log(path: str | Path) -> RunLog:
             optimization.append(
                 {
                     f: getattr(message, f)
-                    for f in ("trial", "step", "cost", "dropout", "learning_rate", "signal")
+                    for f in (
+                        "trial",
+                        "step",
+                        "cost",
+                        "dropout",
+                        "learning_rate",
+                        "signal",
+                        "horizon",
+                    )
                 }
             )
         elif topic == "/gp/hyperparameters":

@@ -5,7 +5,7 @@ one scalar per call). Entities, per trial k and state component i:
 ``trial_k/particles/x{i}`` (M' particle values per time step), ``trial_k/mean/x{i}``,
 ``trial_k/real/x{i}`` (the system's true state), ``trial_k/cost`` (real) and
 ``trial_k/particle_cost`` (mean over particles), all on the ``time`` timeline (seconds);
-``optimization/{cost,dropout,learning_rate,signal}`` on the ``optimization_step`` and
+``optimization/{cost,dropout,learning_rate,signal,horizon}`` on the ``optimization_step`` and
 ``trial`` timelines.
 """
 
@@ -131,7 +131,7 @@ class RerunStreamer(TrialObserver):
             rr.TimeColumn("optimization_step", sequence=steps),
             rr.TimeColumn("trial", sequence=np.full(len(steps), trial)),
         ]
-        for name in ("cost", "dropout", "learning_rate", "signal"):
+        for name in ("cost", "dropout", "learning_rate", "signal", "horizon"):
             self.recording.send_columns(
                 f"optimization/{name}",
                 indexes=index,

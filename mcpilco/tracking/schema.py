@@ -45,6 +45,7 @@ MESSAGES: dict[str, list[tuple[str, int, bool]]] = {
         ("dropout", _T.TYPE_DOUBLE, False),
         ("learning_rate", _T.TYPE_DOUBLE, False),
         ("signal", _T.TYPE_DOUBLE, False),
+        ("horizon", _T.TYPE_INT32, False),
     ],
     "Hyperparameter": [
         ("trial", _T.TYPE_INT32, False),
