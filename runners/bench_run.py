@@ -19,6 +19,7 @@ def logging_overhead(
 
     from mcpilco.systems import CartPole
     from mcpilco.tracking import McapLogger, RerunStreamer
+    from mcpilco.tracking.schema import TRACE_KEYS
     from mcpilco.trajectory import Trajectory
 
     rng = np.random.default_rng(0)
@@ -26,10 +27,7 @@ def logging_overhead(
     states = rng.normal(size=(61, 4))
     trajectory = Trajectory(states, states, rng.normal(size=(60, 1)), 0.05)
     particles = rng.normal(size=(61, 400, 4))
-    trace: dict[str, list[float]] = {
-        k: rng.normal(size=steps).tolist() for k in ("cost", "dropout", "learning_rate", "signal")
-    }
-    trace["horizon"] = [60.0] * steps
+    trace = {k: rng.normal(size=steps).tolist() for k in TRACE_KEYS}
     with tempfile.TemporaryDirectory() as folder:
         observers = [
             McapLogger(folder),

@@ -19,6 +19,7 @@ from omegaconf import OmegaConf
 from mcpilco.tracking import RerunStreamer, read_run_log
 from mcpilco.tracking.reader import RunLog
 from mcpilco.tracking.rerun_stream import LOCAL_VIEWER
+from mcpilco.tracking.schema import TRACE_KEYS
 from mcpilco.trajectory import Trajectory
 
 log = logging.getLogger("mcpilco.replay")
@@ -44,10 +45,7 @@ def replay(run_log: RunLog, streamer: RerunStreamer, trials: list[int]) -> None:
         if trace is not None and len(trace):
             streamer.optimized(
                 trial,
-                {
-                    k: trace[k].tolist()
-                    for k in ("cost", "dropout", "learning_rate", "signal", "horizon")
-                },
+                {k: trace[k].tolist() for k in TRACE_KEYS},
             )
         if trial in run_log.particles:
             particles = run_log.particles[trial]

@@ -103,8 +103,7 @@ class McapLogger(TrialObserver):
             )
 
     def optimized(self, trial: int, trace: Mapping[str, list[float]]) -> None:
-        keys = ("cost", "dropout", "learning_rate", "signal", "horizon")
-        for step, values in enumerate(zip(*(trace[k] for k in keys), strict=True)):
+        for step, values in enumerate(zip(*(trace[k] for k in schema.TRACE_KEYS), strict=True)):
             cost, dropout, learning_rate, signal, horizon = values
             self._write(
                 "/optimization",

@@ -17,6 +17,8 @@ from mcap.records import Channel, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap_protobuf.decoder import DecoderFactory
 
+from mcpilco.tracking.schema import TRACE_KEYS
+
 log = logging.getLogger(__name__)
 
 
@@ -119,20 +121,7 @@ def read_run_log(path: str | Path) -> RunLog:
         elif topic == "/particles":
             particle_steps.setdefault(message.trial, []).append(message)
         elif topic == "/optimization":
-            optimization.append(
-                {
-                    f: getattr(message, f)
-                    for f in (
-                        "trial",
-                        "step",
-                        "cost",
-                        "dropout",
-                        "learning_rate",
-                        "signal",
-                        "horizon",
-                    )
-                }
-            )
+            optimization.append({f: getattr(message, f) for f in ("trial", "step", *TRACE_KEYS)})
         elif topic == "/gp/hyperparameters":
             hyper.append(
                 {"trial": message.trial, "name": message.name, "values": list(message.values)}

@@ -22,6 +22,7 @@ import rerun.blueprint as rrb
 
 from mcpilco.errors import ConfigError
 from mcpilco.tracking.base import TrialObserver
+from mcpilco.tracking.schema import TRACE_KEYS
 from mcpilco.trajectory import Trajectory
 
 LOCAL_VIEWER = "rerun+http://127.0.0.1:9876/proxy"
@@ -131,7 +132,7 @@ class RerunStreamer(TrialObserver):
             rr.TimeColumn("optimization_step", sequence=steps),
             rr.TimeColumn("trial", sequence=np.full(len(steps), trial)),
         ]
-        for name in ("cost", "dropout", "learning_rate", "signal", "horizon"):
+        for name in TRACE_KEYS:
             self.recording.send_columns(
                 f"optimization/{name}",
                 indexes=index,

@@ -88,6 +88,9 @@ OptimizationStep = CLASSES["OptimizationStep"]
 Hyperparameter = CLASSES["Hyperparameter"]
 TrialSummary = CLASSES["TrialSummary"]
 
+# The per-step columns of an optimisation trace (OptimizationStep after trial and step).
+TRACE_KEYS: tuple[str, ...] = tuple(name for name, _, _ in MESSAGES["OptimizationStep"][2:])
+
 TOPICS = {
     "/rollout": RolloutSample,
     "/particles": ParticleSample,
