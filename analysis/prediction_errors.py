@@ -30,7 +30,7 @@ def run_prediction_errors(run: Path, trial: int) -> pd.DataFrame:
     c = experiment.components
     c.model.load_gp(storage.load_checkpoint(trial, "model"))
     trajectory = storage.load_trajectory(trial)
-    states = c.estimator.offline(trajectory.measurements, trajectory.dt)
+    states = c.estimator.offline(trajectory.measurements, trajectory.dt, trajectory.actions)
     inputs, targets = c.model.dataset([states], [trajectory.actions])
     assert c.model.gp is not None
     with torch.no_grad():

@@ -172,7 +172,7 @@ class TrialLoop:
     def _learn_model(self, trial: int) -> Any:
         """Step 1: train the GPs on all data so far (offline state estimates)."""
         estimator, dt = self.c.estimator, self.c.system.dt
-        states = [estimator.offline(t.measurements, dt) for t in self.trajectories]
+        states = [estimator.offline(t.measurements, dt, t.actions) for t in self.trajectories]
         actions = [t.actions for t in self.trajectories]
         try:
             report = self.c.model.fit(states, actions)

@@ -73,7 +73,7 @@ def exploration_data(experiment, n: int, seed: int = 0):  # type: ignore[no-unty
             system.rollout(controller, system.sample_initial_state(rng), system.num_steps, rng)
         )
     estimator = experiment.components.estimator  # offline estimates, as the trial loop fits
-    states = [estimator.offline(t.measurements, system.dt) for t in trajectories]
+    states = [estimator.offline(t.measurements, system.dt, t.actions) for t in trajectories]
     actions = [t.actions for t in trajectories]
     return states, actions
 

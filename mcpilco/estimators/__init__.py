@@ -2,6 +2,7 @@
 
 from mcpilco.estimators.base import StateEstimator
 from mcpilco.estimators.difference import CausalDifference, ZeroPhaseDifference
+from mcpilco.estimators.held_input import HeldInputSmoother
 from mcpilco.estimators.identity import FullStateMeasurement
 from mcpilco.estimators.kalman import KalmanEstimator
 from mcpilco.estimators.positions import PositionBasedEstimator
@@ -9,6 +10,7 @@ from mcpilco.estimators.positions import PositionBasedEstimator
 __all__ = [
     "CausalDifference",
     "FullStateMeasurement",
+    "HeldInputSmoother",
     "KalmanEstimator",
     "PositionBasedEstimator",
     "StateEstimator",

@@ -19,8 +19,12 @@ class StateEstimator(ABC):
     """Offline and online state estimation from measurements."""
 
     @abstractmethod
-    def offline(self, measurements: np.ndarray, dt: float) -> np.ndarray:
-        """States ``[T+1, d_x]`` estimated from a whole trajectory of measurements."""
+    def offline(
+        self, measurements: np.ndarray, dt: float, actions: np.ndarray | None = None
+    ) -> np.ndarray:
+        """States ``[T+1, d_x]`` estimated from a whole trajectory of measurements
+        ``[T+1, d_y]``; ``actions [T, d_u]`` are the inputs held between the readings (used
+        by estimators that model them, ignored by the others)."""
 
     @abstractmethod
     def online_reset(self, batch_size: int, like: torch.Tensor) -> Any:

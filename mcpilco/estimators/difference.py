@@ -60,7 +60,9 @@ class CausalDifference(PositionBasedEstimator):
         raw = np.diff(positions, axis=0, prepend=positions[:1]) / self.dt
         return _signal().lfilter(self.b, self.a, raw, axis=0)
 
-    def offline(self, measurements: np.ndarray, dt: float) -> np.ndarray:
+    def offline(
+        self, measurements: np.ndarray, dt: float, actions: np.ndarray | None = None
+    ) -> np.ndarray:
         positions = self.positions_of(measurements)
         return self.assemble(positions, self.causal_velocities(positions))
 
@@ -100,17 +102,22 @@ class ZeroPhaseDifference(CausalDifference):
     low-pass of ``offline_order`` on the positions, then central differences — accurate,
     not causal, for GP training data (MC-PILCO4PMS, thesis §3.1). Online: the causal
     estimator of :class:`CausalDifference` with ``order`` (first-order by default) at the
-    same cut-off.
+    same cut-off. With ``cutoff_hz=None`` neither part filters: central differences of the
+    readings offline, causal differences online (the thesis's Furuta pendulum, §3.4.1).
 
     Args:
-        system: the plant. cutoff_hz: cut-off of both filters (Hz).
+        system: the plant. cutoff_hz: cut-off of both filters (Hz), or None for no filter.
         order: online low-pass order. offline_order: offline low-pass order.
     """
 
     name = "zero_phase"
 
     def __init__(
-        self, system: MechanicalSystem, cutoff_hz: float, order: int = 1, offline_order: int = 2
+        self,
+        system: MechanicalSystem,
+        cutoff_hz: float | None,
+        order: int = 1,
+        offline_order: int = 2,
     ) -> None:
         super().__init__(system, cutoff_hz, order)
         if not isinstance(offline_order, int) or offline_order < 1:
@@ -118,12 +125,17 @@ class ZeroPhaseDifference(CausalDifference):
                 f"estimator.offline_order must be a positive integer, got {offline_order!r}"
             )
         self.offline_order = offline_order
-        self.offline_b, self.offline_a = _butterworth(offline_order, cutoff_hz, self.dt)
-
-    def offline(self, measurements: np.ndarray, dt: float) -> np.ndarray:
-        positions = self.positions_of(measurements)
-        padding = min(3 * max(len(self.offline_a), len(self.offline_b)), len(positions) - 1)
-        smooth = _signal().filtfilt(
-            self.offline_b, self.offline_a, positions, axis=0, padlen=padding
+        self.offline_taps = (
+            None if self.cutoff_hz is None else _butterworth(offline_order, self.cutoff_hz, self.dt)
         )
+
+    def offline(
+        self, measurements: np.ndarray, dt: float, actions: np.ndarray | None = None
+    ) -> np.ndarray:
+        positions = self.positions_of(measurements)
+        if self.offline_taps is None:
+            return self.assemble(positions, np.gradient(positions, self.dt, axis=0))
+        offline_b, offline_a = self.offline_taps
+        padding = min(3 * max(len(offline_a), len(offline_b)), len(positions) - 1)
+        smooth = _signal().filtfilt(offline_b, offline_a, positions, axis=0, padlen=padding)
         return self.assemble(smooth, np.gradient(smooth, self.dt, axis=0))

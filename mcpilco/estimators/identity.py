@@ -21,7 +21,9 @@ class FullStateMeasurement(StateEstimator):
     def __init__(self, system: MechanicalSystem | None = None) -> None:
         self.system = system
 
-    def offline(self, measurements: np.ndarray, dt: float) -> np.ndarray:
+    def offline(
+        self, measurements: np.ndarray, dt: float, actions: np.ndarray | None = None
+    ) -> np.ndarray:
         return measurements
 
     def online_reset(self, batch_size: int, like: torch.Tensor) -> None:

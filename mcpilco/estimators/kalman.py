@@ -129,7 +129,9 @@ class KalmanEstimator(PositionBasedEstimator):
             smoothed[t] = filtered[t] + np.einsum("qij,qj->qi", back_gain, correction)
         return smoothed
 
-    def offline(self, measurements: np.ndarray, dt: float) -> np.ndarray:
+    def offline(
+        self, measurements: np.ndarray, dt: float, actions: np.ndarray | None = None
+    ) -> np.ndarray:
         smoothed = self.smooth(self.positions_of(measurements))
         return self.assemble(smoothed[..., 0], smoothed[..., 1])
 
