@@ -8,6 +8,7 @@ import numpy as np
 
 from mcpilco.errors import ConfigError
 from mcpilco.estimators.difference import CausalDifference
+from mcpilco.estimators.positions import rts_backward
 from mcpilco.systems.base import MechanicalSystem
 
 
@@ -59,8 +60,8 @@ class HeldInputSmoother(CausalDifference):
         order: int = 1,
     ) -> None:
         super().__init__(system, cutoff_hz, order)
-        self.jerk_psd = self._per_position("jerk_psd", jerk_psd)
-        self.gain_psd = self._per_position("gain_psd", gain_psd)
+        jerk = self.per_position("jerk_psd", jerk_psd)
+        gain = self.per_position("gain_psd", gain_psd)
         for key, value in (
             ("initial_velocity_std", initial_velocity_std),
             ("initial_acceleration_std", initial_acceleration_std),
@@ -80,14 +81,12 @@ class HeldInputSmoother(CausalDifference):
         for k in range(self.num_inputs):
             prior[:, 3 + k, 3 + k] = initial_gain_std**2
         self.initial_covariance = prior
-
-    def _per_position(self, key: str, value: float | Sequence[float]) -> np.ndarray:
-        array = np.asarray(value, dtype=np.float64)
-        if array.size not in (1, self.num_positions) or np.any(~(array > 0)):
-            raise ConfigError(
-                f"estimator.{key} needs one positive value or {self.num_positions}, got {value!r}"
-            )
-        return np.broadcast_to(array.reshape(-1), (self.num_positions,)).copy()
+        # white-noise intensities [d_q, n, n] of ḟ and ġ_k
+        intensity = np.zeros((self.num_positions, size, size))
+        intensity[:, 2, 2] = jerk
+        for k in range(self.num_inputs):
+            intensity[:, 3 + k, 3 + k] = gain
+        self.intensity = intensity
 
     def discretise(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Exact transitions ``A [T, n, n]`` and process noises ``Q [T, d_q, n, n]`` of the
@@ -97,13 +96,9 @@ class HeldInputSmoother(CausalDifference):
         drift[:, 0, 1] = 1.0
         drift[:, 1, 2] = 1.0
         drift[:, 1, 3:] = actions
-        intensity = np.zeros((self.num_positions, size, size))
-        intensity[:, 2, 2] = self.jerk_psd
-        for k in range(self.num_inputs):
-            intensity[:, 3 + k, 3 + k] = self.gain_psd
         block = np.zeros((steps, self.num_positions, 2 * size, 2 * size))
         block[..., :size, :size] = -drift[:, None]
-        block[..., :size, size:] = intensity[None]
+        block[..., :size, size:] = self.intensity[None]
         block[..., size:, size:] = np.swapaxes(drift, -1, -2)[:, None]
         exponential = _expm(block * self.dt)
         transition = np.swapaxes(exponential[:, 0, size:, size:], -1, -2)  # [T, n, n]
@@ -131,13 +126,7 @@ class HeldInputSmoother(CausalDifference):
             residual = positions[t] - predicted[t, :, 0]
             filtered[t] = predicted[t] + gain * residual[:, None]
             filtered_cov[t] = predicted_cov[t] - gain[:, :, None] * predicted_cov[t, :, None, 0, :]
-        smoothed = filtered.copy()
-        for t in range(steps - 2, -1, -1):
-            a = transition[t]
-            back_gain = filtered_cov[t] @ a.T @ np.linalg.inv(predicted_cov[t + 1])
-            correction = smoothed[t + 1] - predicted[t + 1]
-            smoothed[t] = filtered[t] + np.einsum("qij,qj->qi", back_gain, correction)
-        return smoothed
+        return rts_backward(filtered, filtered_cov, predicted, predicted_cov, transition)
 
     def offline(
         self, measurements: np.ndarray, dt: float, actions: np.ndarray | None = None

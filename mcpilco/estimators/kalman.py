@@ -10,7 +10,7 @@ import numpy as np
 import torch
 
 from mcpilco.errors import ConfigError
-from mcpilco.estimators.positions import PositionBasedEstimator
+from mcpilco.estimators.positions import PositionBasedEstimator, rts_backward
 from mcpilco.systems.base import MechanicalSystem
 
 
@@ -40,12 +40,7 @@ class KalmanEstimator(PositionBasedEstimator):
         initial_acceleration_std: float = 1.0,
     ) -> None:
         super().__init__(system, self.name)
-        psd = np.broadcast_to(np.asarray(jerk_psd, dtype=np.float64), (self.num_positions,))
-        if np.asarray(jerk_psd).size not in (1, self.num_positions) or np.any(~(psd > 0)):
-            raise ConfigError(
-                f"estimator.jerk_psd needs one positive value or {self.num_positions}, "
-                f"got {jerk_psd!r}"
-            )
+        psd = self.per_position("jerk_psd", jerk_psd)
         for key, value in (
             ("initial_velocity_std", initial_velocity_std),
             ("initial_acceleration_std", initial_acceleration_std),
@@ -115,19 +110,16 @@ class KalmanEstimator(PositionBasedEstimator):
         a = self.transition
         filtered = np.zeros((steps, self.num_positions, 3))
         filtered_cov = np.zeros((steps, self.num_positions, 3, 3))
+        predicted = np.zeros_like(filtered)
         predicted_cov = np.zeros_like(filtered_cov)
         filtered[0, :, 0] = positions[0]
         filtered_cov[0] = self.initial_covariance
         for t in range(1, steps):
             predicted_cov[t], gain, filtered_cov[t] = self._predict_update(filtered_cov[t - 1])
-            prior = filtered[t - 1] @ a.T
-            filtered[t] = prior + gain * (positions[t] - prior[:, 0])[:, None]
-        smoothed = filtered.copy()
-        for t in range(steps - 2, -1, -1):
-            back_gain = filtered_cov[t] @ a.T @ np.linalg.inv(predicted_cov[t + 1])
-            correction = smoothed[t + 1] - filtered[t] @ a.T
-            smoothed[t] = filtered[t] + np.einsum("qij,qj->qi", back_gain, correction)
-        return smoothed
+            predicted[t] = filtered[t - 1] @ a.T
+            filtered[t] = predicted[t] + gain * (positions[t] - predicted[t, :, 0])[:, None]
+        transitions = np.broadcast_to(a, (max(steps - 1, 0), 3, 3))
+        return rts_backward(filtered, filtered_cov, predicted, predicted_cov, transitions)
 
     def offline(
         self, measurements: np.ndarray, dt: float, actions: np.ndarray | None = None

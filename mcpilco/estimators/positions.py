@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import torch
 
@@ -48,6 +50,16 @@ class PositionBasedEstimator(StateEstimator):
             )
         return float(cutoff_hz)
 
+    def per_position(self, key: str, value: float | Sequence[float]) -> np.ndarray:
+        """``estimator.<key>`` as ``[d_q]`` positive floats from one value or one per
+        position."""
+        array = np.asarray(value, dtype=np.float64).reshape(-1)
+        if array.size not in (1, self.num_positions) or np.any(~(array > 0)):
+            raise ConfigError(
+                f"estimator.{key} needs one positive value or {self.num_positions}, got {value!r}"
+            )
+        return np.broadcast_to(array, (self.num_positions,)).copy()
+
     def positions_of(self, readings: np.ndarray) -> np.ndarray:
         """Positions ``[..., d_q]`` (position_indices order) from readings ``[..., d_y]``."""
         return readings[..., self.position_columns]
@@ -61,3 +73,28 @@ class PositionBasedEstimator(StateEstimator):
 
     def assemble_tensor(self, positions: torch.Tensor, velocities: torch.Tensor) -> torch.Tensor:
         return torch.cat([positions, velocities], dim=-1)[..., self.state_order]
+
+
+def rts_backward(
+    filtered: np.ndarray,
+    filtered_cov: np.ndarray,
+    predicted: np.ndarray,
+    predicted_cov: np.ndarray,
+    transitions: np.ndarray,
+) -> np.ndarray:
+    """Rauch–Tung–Striebel backward pass over a Kalman filter's output.
+
+    Args:
+        filtered, predicted: posterior and prior means ``[T, d_q, n]`` (prior at step t
+            given readings up to t − 1). filtered_cov, predicted_cov: ``[T, d_q, n, n]``.
+        transitions: ``[T−1, n, n]``, step t → t+1.
+
+    Returns:
+        Smoothed means ``[T, d_q, n]``.
+    """
+    smoothed = filtered.copy()
+    for t in range(len(filtered) - 2, -1, -1):
+        back_gain = filtered_cov[t] @ transitions[t].T @ np.linalg.inv(predicted_cov[t + 1])
+        correction = smoothed[t + 1] - predicted[t + 1]
+        smoothed[t] = filtered[t] + np.einsum("qij,qj->qi", back_gain, correction)
+    return smoothed
