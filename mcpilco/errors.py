@@ -5,5 +5,28 @@ class ConfigError(ValueError):
     """A configuration value is invalid; the message names the key and the value."""
 
 
+class RefusedTargetError(ConfigError):
+    """A configuration read from a file names a ``_target_`` that may not be instantiated
+    (a builtin, a function, or a class outside mcpilco's extension points)."""
+
+
 class NotPositiveDefiniteError(RuntimeError):
     """A kernel matrix stayed non-positive-definite after the largest jitter was tried."""
+
+
+class NonFiniteError(RuntimeError):
+    """A reading, action, state or model output is NaN or infinite; the message names the
+    trial (where known), the time step and the component."""
+
+
+class SimulationError(RuntimeError):
+    """A simulator could not advance the state (an integrator failed or ran past its
+    bound on work, MuJoCo reported an unstable acceleration)."""
+
+
+class RunInUseError(RuntimeError):
+    """Another live process holds the run directory's lock."""
+
+
+class CheckpointError(ValueError):
+    """A checkpoint file is missing, corrupt, or holds more than tensors."""

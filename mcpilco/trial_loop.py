@@ -8,12 +8,13 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 import pandas as pd
 import torch
 from torch import nn
 
 from mcpilco.controller import PolicyController
-from mcpilco.errors import NotPositiveDefiniteError
+from mcpilco.errors import NonFiniteError, NotPositiveDefiniteError, SimulationError
 from mcpilco.estimators.base import StateEstimator
 from mcpilco.models.base import ModelStructure
 from mcpilco.optim.policy_optimizer import PolicyOptimizer, StepInfo, frozen
@@ -22,6 +23,7 @@ from mcpilco.policies.rbf import SquashedRBFPolicy
 from mcpilco.run_storage import RunDirectory
 from mcpilco.seeding import RandomStreams
 from mcpilco.systems.base import Controller, MechanicalSystem
+from mcpilco.systems.checks import require_finite
 from mcpilco.tracking.base import TrialObserver
 from mcpilco.trajectory import Trajectory
 
@@ -105,7 +107,7 @@ class TrialLoop:
             observer.run_started(self.metadata, first - 1)
         if first == 0:
             start = time.perf_counter()
-            exploration = self._interact(self.c.exploration(rng=self.streams.system))
+            exploration = self._interact(self.c.exploration(rng=self.streams.system), 0)
             table = self._record(0, exploration, {"rollout_seconds": time.perf_counter() - start})
             if on_trial is not None:
                 on_trial(table.iloc[-1].to_dict())
@@ -121,6 +123,8 @@ class TrialLoop:
                 None if on_step is None else (lambda info, k=trial: on_step(k, info)),
             )
             optimization_seconds = time.perf_counter() - start
+            if not result.costs:
+                self._no_finite_step(trial, result.restarts)
             trace = {
                 "cost": result.costs,
                 "dropout": result.dropouts,
@@ -136,7 +140,7 @@ class TrialLoop:
             logging_seconds = time.perf_counter() - start
             start = time.perf_counter()
             controller = PolicyController(self.c.policy, self.c.model, self.c.estimator)
-            trajectory = self._interact(controller)
+            trajectory = self._interact(controller, trial)
             rollout_seconds = time.perf_counter() - start
             self.storage.save_checkpoint(trial, "policy", self.c.policy.state_dict())
             self.storage.save_checkpoint(trial, "model", self.c.model.checkpoint())
@@ -169,17 +173,37 @@ class TrialLoop:
         log.info("resuming %s after trial %d", self.storage.path, last)
         return last + 1
 
+    def _saved_note(self, trial: int) -> str:
+        if trial == 0:
+            return "no trial finished"
+        return f"trials 0..{trial - 1} are saved in {self.storage.path}"
+
     def _learn_model(self, trial: int) -> Any:
         """Step 1: train the GPs on all data so far (offline state estimates)."""
         estimator, dt = self.c.estimator, self.c.system.dt
         states = [estimator.offline(t.measurements, dt, t.actions) for t in self.trajectories]
         actions = [t.actions for t in self.trajectories]
+        for data_trial, estimate in enumerate(states):
+            rows = np.flatnonzero(~np.isfinite(estimate).all(axis=1))
+            if rows.size:
+                what = f"the offline state estimate of trial {data_trial}'s rollout"
+                try:
+                    require_finite(estimate[rows[0]], what, int(rows[0]), self.c.system.state_names)
+                except NonFiniteError as error:
+                    raise NonFiniteError(
+                        f"trial {trial}: {error} ({self._saved_note(trial)})"
+                    ) from None
         try:
             report = self.c.model.fit(states, actions)
         except NotPositiveDefiniteError as error:
             raise NotPositiveDefiniteError(
-                f"trial {trial}: {error} (trials 0..{trial - 1} are saved in {self.storage.path})"
+                f"trial {trial}: {error} ({self._saved_note(trial)})"
             ) from error
+        if not np.isfinite(report.negative_log_likelihood):
+            raise NonFiniteError(
+                f"trial {trial}: the GP fit ended at -log p(y|X)/N = "
+                f"{report.negative_log_likelihood} ({self._saved_note(trial)})"
+            )
         hyperparameters = self.c.model.hyperparameters()
         for observer in self.observers:
             observer.model_fitted(trial, hyperparameters)
@@ -197,12 +221,35 @@ class TrialLoop:
         for observer in wanting:
             observer.particles_predicted(trial, states, costs_np, self.c.system.dt)
 
-    def _interact(self, controller: Controller) -> Trajectory:
+    def _no_finite_step(self, trial: int, restarts: int) -> None:
+        """The optimiser never saw a finite Ĵ: stop, naming where the particles (of the
+        last policy tried, without dropout) first leave the finite numbers."""
+        with torch.no_grad(), frozen(self.c.model):
+            result = self.rollout(self.c.optimizer.num_particles, 0.0, self.streams.reporting)
+        finite = torch.isfinite(result.states).all(dim=1).cpu().numpy()  # [T+1, d_x]
+        where = "their cost is not finite although the states are"
+        bad = np.argwhere(~finite)
+        if bad.size:
+            step, component = (int(i) for i in bad[0])
+            names = self.c.system.state_names
+            label = f" ({names[component]})" if component < len(names) else ""
+            where = f"the particles first leave the finite numbers at step {step}, component "
+            where += f"{component}{label}"
+        raise NonFiniteError(
+            f"trial {trial}: policy optimisation made no finite step ({restarts} policy "
+            f"restarts); {where}: the model or the policy produces NaN/inf "
+            f"({self._saved_note(trial)})"
+        )
+
+    def _interact(self, controller: Controller, trial: int) -> Trajectory:
         """Step 3: run a controller on the system from a fresh x0 ~ p(x0)."""
         system, rng = self.c.system, self.streams.system
-        trajectory = system.rollout(
-            controller, system.sample_initial_state(rng), system.num_steps, rng
-        )
+        try:
+            trajectory = system.rollout(
+                controller, system.sample_initial_state(rng), system.num_steps, rng
+            )
+        except (NonFiniteError, SimulationError) as error:
+            raise type(error)(f"trial {trial}, {error} ({self._saved_note(trial)})") from error
         self.trajectories.append(trajectory)
         return trajectory
 
@@ -223,8 +270,11 @@ class TrialLoop:
         row["logging_seconds"] = row.get("logging_seconds", 0.0) + time.perf_counter() - start
         row["timestamp"] = time.time()
         self.storage.save_random_state(trial, self.streams.state())
-        table = self.storage.append_summary(row)  # the row marks the trial finished
+        # The log first (the MCAP chunk is flushed here), the summary row last: the row marks
+        # the trial finished, so a kill between the two re-runs the trial on resume and the
+        # log's copy of it is dropped then — a finished trial is never missing from the log.
         for observer in self.observers:
             observer.trial_finished(trial, row)
+        table = self.storage.append_summary(row)
         log.info("trial %d: %s", trial, {k: row[k] for k in row if k != "timestamp"})
         return table

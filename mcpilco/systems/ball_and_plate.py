@@ -10,6 +10,7 @@ import torch
 
 from mcpilco.errors import ConfigError
 from mcpilco.systems.base import Controller, OdeSystem
+from mcpilco.systems.checks import non_negative, positive
 from mcpilco.trajectory import Trajectory
 
 ROLLING = 5.0 / 7.0
@@ -100,16 +101,18 @@ class BallAndPlate(OdeSystem):
             quantization,
             initial_distribution,
         )
+        plate_half_width = positive("plate_half_width", plate_half_width)
+        gravity = non_negative("gravity", gravity)
+        success_window = positive("success_window", success_window)
+        if success_radius is not None:
+            success_radius = positive("success_radius", success_radius)
         if not 0 < ball_radius < plate_half_width:
             raise ConfigError(
                 f"system.ball_radius={ball_radius} must be in (0, plate_half_width="
                 f"{plate_half_width})"
             )
-        if linkage_ratio <= 0 or rolling_friction < 0:
-            raise ConfigError(
-                f"system.linkage_ratio={linkage_ratio} must be > 0 and "
-                f"system.rolling_friction={rolling_friction} >= 0"
-            )
+        linkage_ratio = positive("linkage_ratio", linkage_ratio)
+        rolling_friction = non_negative("rolling_friction", rolling_friction)
         self.plate_half_width, self.ball_radius = plate_half_width, ball_radius
         self.linkage_ratio, self.rolling_friction = linkage_ratio, rolling_friction
         self.gravity = gravity

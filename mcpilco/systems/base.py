@@ -10,7 +10,8 @@ import numpy as np
 import torch
 from scipy.integrate import solve_ivp
 
-from mcpilco.errors import ConfigError
+from mcpilco.errors import ConfigError, NonFiniteError, SimulationError
+from mcpilco.systems.checks import positive, require_finite
 from mcpilco.systems.sensors import Sensors
 from mcpilco.trajectory import Trajectory
 
@@ -19,12 +20,6 @@ class Controller(Protocol):
     """Maps the latest measurement ``[d_x]`` at control step ``step`` to an action ``[d_u]``."""
 
     def __call__(self, measurement: np.ndarray, step: int) -> np.ndarray: ...
-
-
-def _positive(name: str, value: float) -> float:
-    if not np.isfinite(value) or value <= 0:
-        raise ConfigError(f"system.{name} must be positive, got {value!r}")
-    return float(value)
 
 
 class MechanicalSystem(ABC):
@@ -81,9 +76,9 @@ class MechanicalSystem(ABC):
                 f"system.initial_distribution={initial_distribution!r} must be normal or uniform"
             )
         self.initial_distribution = initial_distribution
-        self.dt = _positive("dt", dt)
-        self.trial_duration = _positive("trial_duration", trial_duration)
-        self.u_max = _positive("u_max", u_max)
+        self.dt = positive("dt", dt)
+        self.trial_duration = positive("trial_duration", trial_duration)
+        self.u_max = positive("u_max", u_max)
         self.sensors = Sensors(
             self.state_dim, measured_indices, measurement_noise_std, quantization
         )
@@ -134,23 +129,38 @@ class MechanicalSystem(ABC):
     def rollout(
         self, controller: Controller, x0: np.ndarray, num_steps: int, rng: np.random.Generator
     ) -> Trajectory:
-        """Run ``controller`` in closed loop from ``x0`` for ``num_steps`` samples."""
+        """Run ``controller`` in closed loop from ``x0`` for ``num_steps`` samples.
+
+        Raises:
+            NonFiniteError: a state, reading or action is NaN or infinite (the message
+                names the step and the component); nothing NaN ever reaches the simulator.
+        """
+        names = self.state_names
+        reading_names = tuple(names[i] for i in self.sensors.measured if i < len(names))
         states = np.empty((num_steps + 1, self.state_dim))
         measurements = np.empty((num_steps + 1, self.sensors.reading_dim))
         actions = np.empty((num_steps, self.action_dim))
         states[0] = x0
+        require_finite(states[0], "the initial state", 0, names)
         measurements[0] = self.measure(x0, rng)
+        require_finite(measurements[0], "the reading", 0, reading_names)
         for t in range(num_steps):
-            action = np.clip(
-                np.asarray(controller(measurements[t], t), dtype=np.float64).reshape(
-                    self.action_dim
-                ),
-                -self.u_max,
-                self.u_max,
-            )
-            actions[t] = action
-            states[t + 1] = self.step(states[t], action)
+            raw = np.asarray(controller(measurements[t], t), dtype=np.float64)
+            if raw.size != self.action_dim:
+                raise ValueError(
+                    f"step {t}: the controller returned {raw.size} actions, "
+                    f"the system takes {self.action_dim}"
+                )
+            raw = raw.reshape(self.action_dim)
+            require_finite(raw, "the action", t)
+            actions[t] = np.clip(raw, -self.u_max, self.u_max)
+            try:
+                states[t + 1] = self.step(states[t], actions[t])
+            except (NonFiniteError, SimulationError) as error:
+                raise type(error)(f"step {t}: {error}") from error
+            require_finite(states[t + 1], "the state", t + 1, names)
             measurements[t + 1] = self.measure(states[t + 1], rng)
+            require_finite(measurements[t + 1], "the reading", t + 1, reading_names)
         return Trajectory(states=states, measurements=measurements, actions=actions, dt=self.dt)
 
     def velocity_basis(self, features: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
@@ -193,11 +203,15 @@ class MechanicalSystem(ABC):
 class OdeSystem(MechanicalSystem):
     """A system given by an ODE ẋ = f(x, u), integrated with the action held (ZOH).
 
-    Integration uses scipy's DOP853 with tight tolerances (``rtol``, ``atol``).
+    Integration uses scipy's DOP853 with tight tolerances (``rtol``, ``atol``). The work
+    per step is bounded: a step that needs more than ``max_evaluations`` evaluations of
+    f, or where f is not finite (on which scipy's solver would otherwise loop forever),
+    raises an error instead of blocking.
     """
 
     rtol: float = 1e-10
     atol: float = 1e-10
+    max_evaluations: int = 200_000
 
     @abstractmethod
     def derivatives(self, state: np.ndarray, action: np.ndarray) -> np.ndarray:
@@ -212,12 +226,38 @@ class OdeSystem(MechanicalSystem):
         )
 
     def step(self, state: np.ndarray, action: np.ndarray) -> np.ndarray:
+        """One sample of the ODE from ``state`` ``[d_x]`` with ``action`` ``[d_u]`` held.
+
+        Raises:
+            NonFiniteError: the state, the action or f is NaN or infinite.
+            SimulationError: the integrator failed or ran past ``max_evaluations``.
+        """
+        require_finite(np.asarray(state, dtype=np.float64), "the state to integrate", None)
+        require_finite(np.asarray(action, dtype=np.float64), "the action to integrate", None)
+        evaluations = 0
+
+        def bounded(_t: float, x: np.ndarray) -> np.ndarray:
+            nonlocal evaluations
+            evaluations += 1
+            if evaluations > self.max_evaluations:
+                raise SimulationError(
+                    f"{type(self).__name__}: one step of dt={self.dt} s needed more than "
+                    f"{self.max_evaluations} evaluations of the dynamics (too stiff?)"
+                )
+            derivative = np.asarray(self.derivatives(x, action), dtype=np.float64)
+            if not np.all(np.isfinite(derivative)):
+                raise NonFiniteError(
+                    f"the dynamics of {type(self).__name__} returned {derivative.tolist()} "
+                    f"at state {x.tolist()} under action {np.asarray(action).tolist()}"
+                )
+            return derivative
+
         solution = solve_ivp(
-            lambda _t, x: self.derivatives(x, action),
-            (0.0, self.dt),
-            state,
-            method="DOP853",
-            rtol=self.rtol,
-            atol=self.atol,
+            bounded, (0.0, self.dt), state, method="DOP853", rtol=self.rtol, atol=self.atol
         )
+        if solution.status != 0:
+            raise SimulationError(
+                f"{type(self).__name__}: the integrator failed from state "
+                f"{np.asarray(state).tolist()}: {solution.message}"
+            )
         return solution.y[:, -1]

@@ -9,6 +9,7 @@ import numpy as np
 import torch
 
 from mcpilco.systems.base import OdeSystem
+from mcpilco.systems.checks import non_negative, positive
 from mcpilco.trajectory import Trajectory
 
 
@@ -62,15 +63,15 @@ class CartPole(OdeSystem):
             measured_indices,
             quantization,
         )
-        self.cart_mass = cart_mass
-        self.pole_mass = pole_mass
-        self.pole_length = pole_length
-        self.friction = friction
-        self.gravity = gravity
-        self.success_position = success_position
-        self.success_angle_deg = success_angle_deg
-        self.success_window = success_window
-        self.eval_length_scale = eval_length_scale
+        self.cart_mass = positive("cart_mass", cart_mass)
+        self.pole_mass = positive("pole_mass", pole_mass)
+        self.pole_length = positive("pole_length", pole_length)
+        self.friction = non_negative("friction", friction)
+        self.gravity = non_negative("gravity", gravity)
+        self.success_position = positive("success_position", success_position)
+        self.success_angle_deg = positive("success_angle_deg", success_angle_deg)
+        self.success_window = positive("success_window", success_window)
+        self.eval_length_scale = positive("eval_length_scale", eval_length_scale)
 
     def accelerations(
         self,

@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from mcpilco.systems.cartpole import CartPole
+from mcpilco.systems.checks import positive
 from mcpilco.systems.mujoco_sim import MujocoSimulation
 
 CARTPOLE_MJCF = """
@@ -45,6 +46,7 @@ class CartPoleMujoco(CartPole):
 
     def __init__(self, *args: Any, timestep: float = 1e-3, integrator: str = "RK4", **kwargs: Any):
         super().__init__(*args, **kwargs)
+        positive("timestep", timestep)
         xml = CARTPOLE_MJCF.format(
             gravity=self.gravity,
             friction=self.friction,

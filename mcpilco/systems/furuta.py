@@ -9,6 +9,7 @@ import numpy as np
 import torch
 
 from mcpilco.systems.base import OdeSystem
+from mcpilco.systems.checks import non_negative, positive
 from mcpilco.trajectory import Trajectory
 
 BARRIER = 0.75 * np.pi
@@ -90,6 +91,18 @@ class FurutaPendulum(OdeSystem):
             measured_indices,
             quantization,
         )
+        arm_mass, arm_length = positive("arm_mass", arm_mass), positive("arm_length", arm_length)
+        pendulum_mass = positive("pendulum_mass", pendulum_mass)
+        pendulum_length = positive("pendulum_length", pendulum_length)
+        rotor_inertia = non_negative("rotor_inertia", rotor_inertia)
+        arm_damping = non_negative("arm_damping", arm_damping)
+        pendulum_damping = non_negative("pendulum_damping", pendulum_damping)
+        resistance = positive("resistance", resistance)
+        torque_constant = positive("torque_constant", torque_constant)
+        back_emf_constant = non_negative("back_emf_constant", back_emf_constant)
+        gravity = non_negative("gravity", gravity)
+        success_window = positive("success_window", success_window)
+        success_angle_deg = positive("success_angle_deg", success_angle_deg)
         self.arm_inertia = arm_mass * arm_length**2 / 3 + rotor_inertia  # J_h
         self.pendulum_inertia = pendulum_mass * pendulum_length**2 / 3  # J_v about the pivot
         self.arm_length = arm_length

@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from mcpilco.errors import ConfigError
+from mcpilco.errors import ConfigError, SimulationError
 
 
 class MujocoSimulation:
@@ -51,4 +51,15 @@ class MujocoSimulation:
         data.qvel[:] = qvel
         data.ctrl[:] = ctrl
         self._mujoco.mj_step(self.model, data, nstep=self.substeps)
+        unstable = [
+            name
+            for name in ("BADQPOS", "BADQVEL", "BADQACC", "BADCTRL")
+            if data.warning[getattr(self._mujoco.mjtWarning, f"mjWARN_{name}")].number > 0
+        ]
+        if unstable:  # MuJoCo resets such a state and carries on; we stop instead
+            raise SimulationError(
+                f"MuJoCo reported {', '.join(unstable)} (NaN, inf or huge values) stepping from "
+                f"qpos={np.asarray(qpos).tolist()}, qvel={np.asarray(qvel).tolist()}, "
+                f"ctrl={np.asarray(ctrl).tolist()}"
+            )
         return data.qpos.copy(), data.qvel.copy()

@@ -9,7 +9,9 @@ from collections.abc import Sequence
 import numpy as np
 
 from mcpilco.errors import ConfigError
+from mcpilco.policies.exploration import ExplorationController
 from mcpilco.systems.base import MechanicalSystem
+from mcpilco.systems.checks import non_negative, positive
 from mcpilco.systems.mujoco_sim import MujocoSimulation
 from mcpilco.systems.ur5_model import dh_forward_kinematics, ur5_mjcf
 from mcpilco.trajectory import Trajectory
@@ -174,11 +176,15 @@ class UR5(MechanicalSystem):
             measured_indices,
             quantization,
         )
+        non_negative("joint_damping", joint_damping)
+        non_negative("armature", armature)
+        gear = positive("gear", gear)
+        positive("timestep", timestep)
+        self.success_error_mm = positive("success_error_mm", success_error_mm)
         xml = ur5_mjcf(damping=joint_damping, torque_limit=u_max, gear=gear, armature=armature)
         if gravity_compensation:
             xml = xml.replace('gravity="0 0 -9.81"', 'gravity="0 0 0"')
         self.simulation = MujocoSimulation(xml, dt, timestep=timestep, integrator=integrator)
-        self.success_error_mm = success_error_mm
 
     @property
     def reference_states(self) -> np.ndarray:  # type: ignore[override]
@@ -207,7 +213,7 @@ class UR5(MechanicalSystem):
         }
 
 
-class PDExploration:
+class PDExploration(ExplorationController):
     """τ = K_P (q_ref − q) + K_D (q̇_ref − q̇) on the measurement, clipped to ±u_max — the
     thesis's "poorly tuned" PD exploration of the UR5 (gains are per joint or one for all).
 
