@@ -31,14 +31,15 @@ from typing import Any
 
 import numpy as np
 import torch
-from omegaconf import OmegaConf
 from tqdm import tqdm
 
 from mcpilco.build import Experiment, build
 from mcpilco.controller import PolicyController
+from mcpilco.errors import CheckpointError, ConfigError
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
 from mcpilco.run_storage import RunDirectory
+from mcpilco.safe_config import load_run_config
 from mcpilco.trajectory import Trajectory
 
 log = logging.getLogger("mcpilco.evaluate")
@@ -47,14 +48,19 @@ log = logging.getLogger("mcpilco.evaluate")
 def load_trial(run_dir: Path, trial: int | None) -> tuple[int, Experiment]:
     """The run's experiment built from its saved config, with trial ``trial``'s policy and
     GPs loaded (default: the last finished trial); a one-line exit on a trial it lacks."""
+    if not (run_dir / "summary.csv").is_file():
+        raise SystemExit(f"{run_dir} holds no summary.csv (not a run directory?)")
     storage = RunDirectory(run_dir)
     last = storage.finished_trials()
     trial = last if trial is None else trial
     if not 1 <= trial <= last:
         raise SystemExit(f"--trial={trial}: {run_dir} has learned trials 1..{last}")
-    experiment = build(OmegaConf.load(run_dir / "config.yaml"))  # type: ignore[arg-type]
-    experiment.components.policy.load_state_dict(storage.load_checkpoint(trial, "policy"))
-    experiment.components.model.load_gp(storage.load_checkpoint(trial, "model"))
+    try:  # the saved config is checked before anything in it is built (mcpilco.safe_config)
+        experiment = build(load_run_config(run_dir))
+        experiment.components.policy.load_state_dict(storage.load_checkpoint(trial, "policy"))
+        experiment.components.model.load_gp(storage.load_checkpoint(trial, "model"))
+    except (ConfigError, CheckpointError) as error:
+        raise SystemExit(str(error)) from None
     return trial, experiment
 
 
@@ -71,7 +77,7 @@ def evaluate(run_dir: Path, trial: int | None, runs: int, seed: int) -> dict[str
         controller = PolicyController(c.policy, c.model, c.estimator)
         x0 = system.sample_initial_state(rng)
         metrics = system.evaluate(system.rollout(controller, x0, system.num_steps, rng))
-        system_success.append(bool(metrics.get("success", False)))
+        system_success.append(metrics.get("success"))
         system_runs.append(
             {"initial_state": x0.tolist(), **{k: _plain(v) for k, v in metrics.items()}}
         )
@@ -84,9 +90,7 @@ def evaluate(run_dir: Path, trial: int | None, runs: int, seed: int) -> dict[str
         particles = rollout(runs, 0.0, generator).states.cpu().numpy()  # [T+1, runs, d_x]
     no_actions = np.zeros((system.num_steps, system.action_dim))
     model_success = [
-        bool(
-            system.evaluate(Trajectory(states, states, no_actions, system.dt)).get("success", False)
-        )
+        system.evaluate(Trajectory(states, states, no_actions, system.dt)).get("success")
         for states in particles.transpose(1, 0, 2)
     ]
     result = {
@@ -94,8 +98,9 @@ def evaluate(run_dir: Path, trial: int | None, runs: int, seed: int) -> dict[str
         "runs": runs,
         "seed": seed,
         "simulate_estimator": c.simulate_estimator,
-        "system_successes": int(sum(system_success)),
-        "model_successes": int(sum(model_success)),
+        "success_criterion": has_criterion(system_success),
+        "system_successes": count_successes(system_success),
+        "model_successes": count_successes(model_success),
         "system_metrics": summarise_metrics(system_runs),
         "system_runs": system_runs,
     }
@@ -103,6 +108,17 @@ def evaluate(run_dir: Path, trial: int | None, runs: int, seed: int) -> dict[str
         f"evaluation/trial_{trial:02d}.json", json.dumps(result, indent=2)
     )
     return result
+
+
+def has_criterion(outcomes: list[Any]) -> bool:
+    """Whether the system's ``evaluate`` reports a ``success`` (not every system has a
+    success criterion, e.g. a user's plug-in)."""
+    return all(outcome is not None for outcome in outcomes)
+
+
+def count_successes(outcomes: list[Any]) -> int | None:
+    """Number of successes, None when the system has no success criterion."""
+    return int(sum(bool(o) for o in outcomes)) if has_criterion(outcomes) else None
 
 
 def summarise_metrics(runs: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
@@ -204,16 +220,26 @@ def main() -> None:
     logging.basicConfig(level=logging.WARNING)
     if args.starts is not None:
         outcome = evaluate_starts(args.run_dir, args.trial, args.starts, args.seed)
-        wins = sum(bool(s.get("success", False)) for s in outcome["starts"])
+        outcomes = [s.get("success") for s in outcome["starts"]]
+        wins = count_successes(outcomes)
         print(  # noqa: T201
-            f"trial {outcome['trial']}: {wins}/{len(outcome['starts'])} starts succeed"
+            f"trial {outcome['trial']}: {wins}/{len(outcomes)} starts succeed"
+            if wins is not None
+            else f"trial {outcome['trial']}: {len(outcomes)} starts run (the system has no "
+            "success criterion; see the JSON for its metrics)"
         )
         return
     result = evaluate(args.run_dir, args.trial, args.runs, args.seed)
-    print(  # noqa: T201
-        f"trial {result['trial']}: system {result['system_successes']}/{result['runs']}, "
-        f"model {result['model_successes']}/{result['runs']} successes"
-    )
+    if result["success_criterion"]:
+        print(  # noqa: T201
+            f"trial {result['trial']}: system {result['system_successes']}/{result['runs']}, "
+            f"model {result['model_successes']}/{result['runs']} successes"
+        )
+    else:
+        print(  # noqa: T201
+            f"trial {result['trial']}: {result['runs']} runs on the system; no success count "
+            "(the system's evaluate() reports no 'success')"
+        )
     for name, stats in result["system_metrics"].items():
         print(f"  system {name}: mean {stats['mean']:.4g}, max {stats['max']:.4g}")  # noqa: T201
 

@@ -10,25 +10,31 @@ last panel with the training cost of the particles (mean) and of the real rollou
 from __future__ import annotations
 
 import argparse
+import logging
 from pathlib import Path
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from hydra.utils import instantiate  # noqa: E402
-from omegaconf import OmegaConf  # noqa: E402
 
+from mcpilco.errors import ConfigError  # noqa: E402
+from mcpilco.safe_config import config_from_text, locate_class  # noqa: E402
 from mcpilco.tracking import read_run_log  # noqa: E402
 from mcpilco.tracking.reader import RunLog  # noqa: E402
+
+log = logging.getLogger("mcpilco.plot_run")
 
 
 def state_names(run_log: RunLog, dim: int) -> list[str]:
     """The logged system's state labels (from the config in the log's metadata)."""
     names: tuple[str, ...] = ()
     if run_log.metadata and "config" in run_log.metadata[0]:
-        config = OmegaConf.create(run_log.metadata[0]["config"])
-        names = getattr(instantiate(config.system), "state_names", ())
+        try:  # the class's labels; nothing is instantiated (see mcpilco.safe_config)
+            config = config_from_text(run_log.metadata[0]["config"], "the log's metadata")
+            names = getattr(locate_class(config.system._target_), "state_names", ())
+        except (ConfigError, AttributeError) as error:
+            log.warning("state labels unavailable (%s)", error)
     return list(names) if len(names) == dim else [f"x{i}" for i in range(dim)]
 
 

@@ -1,8 +1,10 @@
 """Per-run learning summary: ``python -m analysis.summary RUN_DIR... [--csv OUT]``.
 
-Reads each run directory's ``summary.csv`` and ``config.yaml`` and prints one Markdown row
-per run: kernel, model, seed, trial of first success, cumulative evaluation cost (2.17)
-per trial and wall time. Runs that are still going show the trials finished so far.
+Reads each run directory's ``summary.csv`` and ``config.yaml`` (as data: nothing in them
+is instantiated) and prints one Markdown row per run: kernel, model, seed, trial of first
+success, cumulative evaluation cost (2.17) per trial and wall time. Runs that are still
+going show the trials finished so far; a system without an evaluation cost or a success
+criterion shows "—" for them.
 """
 
 from __future__ import annotations
@@ -22,8 +24,11 @@ def load_run(path: Path) -> dict[str, object]:
     summary = pd.read_csv(path / "summary.csv")
     config = OmegaConf.to_container(OmegaConf.load(path / "config.yaml"))
     assert isinstance(config, dict)
-    successes = summary.loc[summary["trial"] > 0]
-    first = successes.loc[successes["success"].astype(bool), "trial"]
+    if "success" in summary.columns:
+        learned = summary.loc[summary["trial"] > 0]
+        first = learned.loc[learned["success"].fillna(False).astype(bool), "trial"]
+    else:  # the system reports no success criterion
+        first = pd.Series([], dtype=int)
     record: dict[str, object] = {
         "run": str(path),
         "kernel": kernel_label(config["kernel"]),
@@ -33,9 +38,11 @@ def load_run(path: Path) -> dict[str, object]:
         "first_success": int(first.iloc[0]) if len(first) else None,
         "wall_minutes": (summary["timestamp"].iloc[-1] - summary["timestamp"].iloc[0]) / 60,
     }
-    for row in summary.itertuples():
-        record[f"cost_T{row.trial}"] = row.eval_cost
-        record[f"success_T{row.trial}"] = bool(row.success)
+    for _, row in summary.iterrows():
+        trial = int(row["trial"])
+        record[f"cost_T{trial}"] = row.get("eval_cost", float("nan"))
+        success = row.get("success")
+        record[f"success_T{trial}"] = None if success is None or pd.isna(success) else bool(success)
     return record
 
 

@@ -16,10 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from hydra.utils import get_class
 from omegaconf import OmegaConf
 
 from mcpilco.run_storage import RunDirectory
+from mcpilco.safe_config import locate_class
 
 
 @dataclass(frozen=True)
@@ -53,7 +53,7 @@ def pole_swings(
 def pole_indices(run: str) -> tuple[int, int]:
     """(angle, angular velocity) state indices of the run's pole: the system's last angle."""
     system = OmegaConf.load(f"{run}/config.yaml").system
-    cls = get_class(system._target_)
+    cls = locate_class(system._target_, "system._target_")  # checked, never instantiated
     angle = cls.angle_indices[-1]
     return angle, cls.velocity_indices[list(cls.position_indices).index(angle)]
 

@@ -15,6 +15,7 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig
 
 from mcpilco.errors import ConfigError
+from mcpilco.safe_config import check_targets
 from mcpilco.seeding import RandomStreams
 from mcpilco.systems.base import MechanicalSystem
 from mcpilco.trial_loop import Components
@@ -99,7 +100,10 @@ def exploration_factory(made: Any, system: MechanicalSystem) -> Any:
 
 
 def build(cfg: DictConfig) -> Experiment:
-    """Instantiate every component (all validation happens here, before any work)."""
+    """Instantiate every component (all validation happens here, before any work). Every
+    ``_target_`` is checked first (:mod:`mcpilco.safe_config`): only subclasses of
+    mcpilco's extension points are built."""
+    check_targets(cfg)
     dtype, device = check_top_level(cfg)
     if cfg.get("threads") is not None:
         torch.set_num_threads(cfg.threads)

@@ -3,14 +3,19 @@
 Everything of a trial is written as soon as the trial ends, each file atomically (written
 beside its final name, then renamed), so a crash or Ctrl-C never loses a finished trial.
 Checkpoints hold state dicts of tensors only and are read with ``weights_only=True``.
+A live run holds an advisory lock on its directory (:meth:`RunDirectory.locked`).
 """
 
 from __future__ import annotations
 
 import json
+import logging
 import os
+import pickle
 import shutil
-from collections.abc import Mapping
+import socket
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +23,15 @@ import numpy as np
 import pandas as pd
 import torch
 
+from mcpilco.errors import CheckpointError, RunInUseError
 from mcpilco.trajectory import Trajectory
+
+try:
+    import fcntl
+except ImportError:  # not POSIX: no advisory lock
+    fcntl = None  # type: ignore[assignment]
+
+log = logging.getLogger(__name__)
 
 
 def _atomic_path(path: Path) -> Path:
@@ -76,8 +89,7 @@ class RunDirectory:
         )
 
     def load_checkpoint(self, trial: int, name: str) -> dict[str, torch.Tensor]:
-        path = self.path / "checkpoints" / f"trial_{trial:02d}" / f"{name}.pt"
-        return torch.load(path, map_location="cpu", weights_only=True)
+        return load_tensors(self.path / "checkpoints" / f"trial_{trial:02d}" / f"{name}.pt")
 
     def save_random_state(self, trial: int, state: Mapping[str, Any]) -> None:
         """Generator states after ``trial`` (numpy's as JSON, torch's as tensors)."""
@@ -90,7 +102,7 @@ class RunDirectory:
     def load_random_state(self, trial: int) -> dict[str, Any]:
         folder = self.path / "checkpoints" / f"trial_{trial:02d}"
         state: dict[str, Any] = json.loads((folder / "random.json").read_text())
-        state.update(torch.load(folder / "random.pt", map_location="cpu", weights_only=True))
+        state.update(load_tensors(folder / "random.pt"))
         return state
 
     def finished_trials(self) -> int:
@@ -127,13 +139,69 @@ class RunDirectory:
     def failed(self) -> bool:
         return (self.path / self.FAILURE_FILE).is_file()
 
+    LOCK_FILE = ".mcpilco.lock"
+
+    @contextmanager
+    def locked(self) -> Iterator[None]:
+        """Hold the directory's advisory lock (``flock``) for the block; a second process
+        asking for it gets :class:`RunInUseError` at once. The kernel releases the lock
+        when its process ends, however it ends, so a killed run never leaves it stuck."""
+        if fcntl is None:
+            log.warning("no advisory locks on this platform: %s is not protected", self.path)
+            yield
+            return
+        handle = open(self.path / self.LOCK_FILE, "a+")  # noqa: SIM115 (closed below)
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.seek(0)
+            holder = handle.read().strip() or "another process"
+            handle.close()
+            raise RunInUseError(
+                f"{self.path} is in use by {holder}: wait for it to end, or pick another "
+                "directory (hydra.run.dir=...)"
+            ) from None
+        try:
+            handle.seek(0)
+            handle.truncate()
+            handle.write(f"pid {os.getpid()} on {socket.gethostname()}\n")
+            handle.flush()
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+            handle.close()
+
     def clear(self) -> None:
         """Delete everything a run wrote here (results, logs of trials, checkpoints), keeping
-        Hydra's ``.hydra/`` and ``*.log`` files of the current start."""
+        Hydra's ``.hydra/``, the ``*.log`` files of the current start and the lock."""
         for entry in self.path.iterdir():
-            if entry.name == ".hydra" or entry.suffix == ".log":
+            if entry.name in (".hydra", self.LOCK_FILE) or entry.suffix == ".log":
                 continue
             if entry.is_dir():
                 shutil.rmtree(entry)
             else:
                 entry.unlink()
+
+
+def load_tensors(path: Path) -> dict[str, Any]:
+    """A checkpoint's dict of tensors, read with ``weights_only=True`` (nothing in it runs);
+    :class:`CheckpointError`, one line naming the file, when it is missing, corrupt or holds
+    anything else."""
+    if not path.is_file():
+        raise CheckpointError(f"{path} does not exist")
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+    except pickle.UnpicklingError as error:
+        first = str(error).strip().splitlines()
+        reason = next((line for line in first if "unsupported" in line.lower()), "not tensors")
+        raise CheckpointError(
+            f"{path} was refused: it holds more than tensors and containers of them "
+            f"({reason.strip()}); mcpilco never loads such a file"
+        ) from None
+    except (RuntimeError, EOFError, OSError, ValueError) as error:
+        lines = str(error).strip().splitlines()
+        reason = lines[0].split(". ")[0] if lines else type(error).__name__
+        raise CheckpointError(f"{path} is not a readable checkpoint ({reason})") from None
+    if not isinstance(state, dict):
+        raise CheckpointError(f"{path} holds a {type(state).__name__}, not a dict of tensors")
+    return state

@@ -14,9 +14,17 @@ from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
 from mcpilco.build import build, make
-from mcpilco.errors import ConfigError
+from mcpilco.errors import (
+    CheckpointError,
+    ConfigError,
+    NonFiniteError,
+    NotPositiveDefiniteError,
+    RunInUseError,
+    SimulationError,
+)
 from mcpilco.optim.policy_optimizer import StepInfo
 from mcpilco.run_storage import RunDirectory
+from mcpilco.safe_config import load_run_config
 from mcpilco.systems.base import MechanicalSystem
 from mcpilco.tracking.base import TrialObserver
 from mcpilco.tracking.metadata import run_metadata
@@ -50,21 +58,31 @@ def check_same_run(cfg: DictConfig, run_dir: Path) -> None:
     log.info("continuing the finished trials in %s", run_dir)
 
 
+def given_on_command_line(key: str) -> bool:
+    """Whether the command line sets the top-level ``key`` (``key=``, ``+key=``, ``++key=``)."""
+    return any(
+        override.lstrip("+").split("=", 1)[0] == key
+        for override in HydraConfig.get().overrides.task
+    )
+
+
 def resolve_resume(cfg: DictConfig) -> tuple[DictConfig, Path]:
     """The config and directory to run in: Hydra's, or those of the run to resume.
 
-    A resumed run keeps its saved config; only ``num_trials`` (to extend the run) and
-    ``threads``/``device``/``compile`` (the machine) are taken from the command line.
+    A resumed run keeps its saved config (checked before anything in it is built, see
+    :mod:`mcpilco.safe_config`); only ``num_trials`` (to extend the run) and
+    ``threads``/``device``/``compile`` (the machine) are taken from the command line, and
+    only when given there.
     """
     if cfg.get("resume") is None:
         return cfg, Path(HydraConfig.get().runtime.output_dir)
     run_dir = Path(cfg.resume).expanduser().resolve()
     if not (run_dir / "config.yaml").is_file():
         raise ConfigError(f"resume={cfg.resume!r} holds no config.yaml")
-    saved = OmegaConf.load(run_dir / "config.yaml")
-    assert isinstance(saved, DictConfig)
+    saved = load_run_config(run_dir)
     for key in ("num_trials", "threads", "device", "compile"):
-        saved[key] = cfg.get(key)
+        if given_on_command_line(key) or key not in saved:
+            saved[key] = cfg.get(key)
     saved.resume = str(run_dir)
     return saved, run_dir
 
@@ -88,9 +106,17 @@ def build_observers(
 
 
 def train(cfg: DictConfig) -> None:
-    """One run: build (all validation first), then the trial loop with a progress bar."""
+    """One run, holding the run directory's lock throughout (a second process on it is
+    refused): build (all validation first), then the trial loop with a progress bar."""
     cfg, run_dir = resolve_resume(cfg)
     storage = RunDirectory(run_dir)
+    with storage.locked():
+        run_locked(cfg, storage)
+
+
+def run_locked(cfg: DictConfig, storage: RunDirectory) -> None:
+    """:func:`train` once the directory is ours."""
+    run_dir = storage.path
     if cfg.get("overwrite") and cfg.get("resume") is None:
         storage.clear()
         log.info("overwrite=true: cleared %s", run_dir)
@@ -131,24 +157,56 @@ def train(cfg: DictConfig) -> None:
     log.info("summary:\n%s", storage.summary().to_string(index=False))
 
 
+def record_failure(run_dir: Path, error: BaseException) -> None:
+    """Write ``failed.txt`` (the traceback) into ``run_dir`` unless another process has
+    taken the directory since."""
+    if not run_dir.is_dir():
+        return
+    storage = RunDirectory(run_dir)
+    text = "".join(traceback.format_exception(type(error), error, error.__traceback__))
+    try:
+        with storage.locked():
+            storage.record_failure(text)
+    except RunInUseError:
+        log.warning("%s was taken by another process; failed.txt not written", run_dir)
+
+
+EXPECTED_ERRORS: tuple[type[Exception], ...] = (
+    ConfigError,
+    NonFiniteError,
+    SimulationError,
+    NotPositiveDefiniteError,
+    CheckpointError,
+)
+"""Failures with a one-line message that says everything: logged as that line (the
+traceback goes to ``failed.txt``), exit status 2 for a bad config and 1 otherwise."""
+
+
 @hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="train")
 def main(cfg: DictConfig) -> None:
-    """Hydra entry point. A failed run leaves ``failed.txt`` in its directory; in a sweep
+    """Hydra entry point. A failed or interrupted run leaves ``failed.txt`` in its
+    directory (a refused second process leaves the live run's directory alone); in a sweep
     the error is re-raised so Hydra records the job as failed and runs the others."""
     keep_freed_memory()
     hydra_config = HydraConfig.get()
+    single = hydra_config.mode != RunMode.MULTIRUN
     try:
         train(cfg)
-    except Exception as error:
+    except RunInUseError as error:  # the directory is another process's: leave it alone
+        log.error("%s", error)
+        if single:
+            sys.exit(2)
+        raise
+    except (Exception, KeyboardInterrupt) as error:
         run_dir = Path(cfg.resume) if cfg.get("resume") else Path(hydra_config.runtime.output_dir)
-        if run_dir.is_dir():
-            RunDirectory(run_dir).record_failure(
-                "".join(traceback.format_exception(type(error), error, error.__traceback__))
-            )
-        if isinstance(error, ConfigError):
-            log.error("configuration error: %s", error)
-            if hydra_config.mode != RunMode.MULTIRUN:
-                sys.exit(2)
+        record_failure(run_dir, error)
+        if isinstance(error, KeyboardInterrupt):
+            log.error("interrupted; the finished trials are kept: resume=%s", run_dir)
+        elif isinstance(error, EXPECTED_ERRORS):
+            kind = "configuration error" if isinstance(error, ConfigError) else "run stopped"
+            log.error("%s: %s", kind, error)
+            if single:
+                sys.exit(2 if isinstance(error, ConfigError) else 1)
         raise
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -85,3 +86,29 @@ def test_user_system_and_cost_plug_in(tmp_path: Path) -> None:
     summary = pd.read_csv(tmp_path / "run" / "summary.csv")
     assert summary["trial"].tolist() == [0, 1]
     assert summary.loc[1, "gp_samples"] == 10  # one exploration rollout of 10 steps
+    # The analysis commands work on a system without evaluation cost or success criterion.
+    summary_cli = subprocess.run(
+        [sys.executable, "-m", "analysis.summary", str(tmp_path / "run")],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert summary_cli.returncode == 0, summary_cli.stderr[-2000:]
+    assert "| SE | 0 | — | — | — |" in summary_cli.stdout
+    evaluation = subprocess.run(
+        [sys.executable, "-m", "analysis.evaluate", str(tmp_path / "run"), "--runs", "3"],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert evaluation.returncode == 0, evaluation.stderr[-2000:]
+    assert "no success count" in evaluation.stdout and "0/3" not in evaluation.stdout
+    result = json.loads((tmp_path / "run" / "evaluation" / "trial_01.json").read_text())
+    assert result["success_criterion"] is False and result["system_successes"] is None
+    assert len(result["system_runs"]) == 3
+    # Replay needs the log alone: without the plug-in importable it warns and replays.
+    for environment, warned in ((env, False), ({**os.environ, "PYTHONPATH": str(ROOT)}, True)):
+        replay = subprocess.run(
+            [sys.executable, "-m", "runners.replay", str(tmp_path / "run")],
+            cwd=ROOT, env=environment, capture_output=True, text=True, timeout=600,
+        )  # fmt: skip
+        assert replay.returncode == 0, replay.stderr[-2000:]
+        assert ("my_plants.Pendulum" in replay.stderr) is warned
+        assert "Traceback" not in replay.stderr
+        assert (tmp_path / "run" / "replay.rrd").stat().st_size > 1000

@@ -7,10 +7,11 @@ from collections.abc import Sequence
 import torch
 from torch import nn
 
+from mcpilco.costs.base import Cost
 from mcpilco.errors import ConfigError
 
 
-class LogisticBarrier(nn.Module):
+class LogisticBarrier(Cost):
     """Soft bounds on one state component (thesis eq. 3.2's c_b):
     σ(k (lower − x_i)) + σ(k (x_i − upper)), σ the logistic function — ≈ 0 inside
     (lower, upper), ≈ 1 beyond either bound.
@@ -35,7 +36,7 @@ class LogisticBarrier(nn.Module):
         return torch.sigmoid(k * (self.lower - x)) + torch.sigmoid(k * (x - self.upper))
 
 
-class CostSum(nn.Module):
+class CostSum(Cost):
     """c(x) = Σ_k c_k(x) of cost modules (e.g. a saturating distance plus a barrier)."""
 
     def __init__(self, terms: Sequence[nn.Module]) -> None:

@@ -6,8 +6,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import torch
-from torch import nn
 
+from mcpilco.costs.base import Cost
 from mcpilco.errors import ConfigError
 
 
@@ -22,7 +22,7 @@ class DistanceTerm:
     absolute: bool = False
 
 
-class SaturatingDistance(nn.Module):
+class SaturatingDistance(Cost):
     """c(x) = 1 − exp(−Σ_i ((f_i(x) − target_i)/ℓ_i)²), in [0, 1).
 
     The cart-pole swing-up cost (2.16) is the terms (θ, |·|, π, l_θ) and (p, 0, l_p).

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import torch
-from torch import nn
 
+from mcpilco.costs.base import Cost
 from mcpilco.errors import ConfigError
 from mcpilco.systems.base import MechanicalSystem
 
 
-class TrackingCost(nn.Module):
+class TrackingCost(Cost):
     """c(x_t) = 1 − exp(−(‖q_ref,t − q_t‖/ℓ_q)² − (‖q̇_ref,t − q̇_t‖/ℓ_q̇)²) against the
     system's reference states (its ``reference_states``), so the cost depends on the time
     index: apply it to whole trajectories ``[T'+1, ..., d_x]`` starting at t = 0.

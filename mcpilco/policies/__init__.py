@@ -1,6 +1,7 @@
 """Policies: the learned squashed-RBF network and exploration controllers."""
 
 from mcpilco.policies.exploration import (
+    ExplorationController,
     FilteredNoiseExploration,
     SumOfSinesExploration,
     TriangularWaveExploration,
@@ -9,6 +10,7 @@ from mcpilco.policies.exploration import (
 from mcpilco.policies.rbf import SquashedRBFPolicy
 
 __all__ = [
+    "ExplorationController",
     "FilteredNoiseExploration",
     "SquashedRBFPolicy",
     "SumOfSinesExploration",

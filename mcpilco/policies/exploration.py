@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+
 import numpy as np
 
 from mcpilco.errors import ConfigError
@@ -14,7 +16,17 @@ def _signal():  # type: ignore[no-untyped-def]
     return signal
 
 
-class UniformRandomExploration:
+class ExplorationController(ABC):
+    """A controller for the exploration rollout (trial 0). Subclasses take ``u_max``,
+    ``action_dim`` and ``rng`` (the system's generator), and ``system`` if they need it.
+    Subclass this for your own (``exploration._target_=my_pkg.MyExploration``)."""
+
+    @abstractmethod
+    def __call__(self, measurement: np.ndarray, step: int) -> np.ndarray:
+        """Action ``[d_u]`` for the reading ``[d_y]`` at control step ``step``."""
+
+
+class UniformRandomExploration(ExplorationController):
     """u_t ~ U(−u_max, u_max), independently per step and component (thesis §2.5).
 
     Args:
@@ -32,7 +44,7 @@ class UniformRandomExploration:
         return self.rng.uniform(-self.u_max, self.u_max, size=self.action_dim)
 
 
-class SumOfSinesExploration:
+class SumOfSinesExploration(ExplorationController):
     """u(t) = Σ_k a_k sin(2π f_k t + φ_k) per action component (thesis §3.3), with random
     amplitudes normalised to Σ_k a_k = ``amplitude`` (so |u| ≤ amplitude ≤ u_max),
     frequencies f_k ~ U(``min_frequency_hz``, ``max_frequency_hz``), phases ~ U(0, 2π),
@@ -74,7 +86,7 @@ class SumOfSinesExploration:
         return (self.amplitudes * waves).sum(-1)
 
 
-class FilteredNoiseExploration:
+class FilteredNoiseExploration(ExplorationController):
     """Gaussian white noise through a Butterworth low-pass at ``cutoff_hz`` (thesis §4.2),
     scaled so that the filtered signal's stationary std is ``std``; clipped to ±u_max.
 
@@ -112,7 +124,7 @@ class FilteredNoiseExploration:
         return np.clip(output[:, 0], -self.u_max, self.u_max)
 
 
-class TriangularWaveExploration:
+class TriangularWaveExploration(ExplorationController):
     """A triangular wave plus white noise per action component (thesis §3.4.2's exploration
     of the ball-and-plate), clipped to ±u_max. Each component's period is drawn from
     U(``min_period_s``, ``max_period_s``) and its phase from U(0, 1) periods, once.
