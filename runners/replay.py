@@ -13,9 +13,9 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from hydra.utils import instantiate
-from omegaconf import OmegaConf
+import pandas as pd
 
+from mcpilco.safe_config import saved_system
 from mcpilco.tracking import RerunStreamer, read_run_log
 from mcpilco.tracking.reader import RunLog
 from mcpilco.tracking.rerun_stream import LOCAL_VIEWER
@@ -31,6 +31,41 @@ def columns(frame, prefix: str) -> np.ndarray:  # type: ignore[no-untyped-def]
         key=lambda c: int(c.rsplit("_", 1)[1]),
     )
     return frame[names].to_numpy(dtype=np.float64)
+
+
+def complete_trials(run_log: RunLog) -> list[int]:
+    """Trials whose summary message and whole rollout (steps 0, 1, ..., T) are in the log;
+    a trial partly lost to a damaged record is named in a warning and left out."""
+    logged = sorted(run_log.trials["trial"].tolist()) if len(run_log.trials) else []
+    complete = []
+    for trial in logged:
+        steps = run_log.rollout(trial)["step"].tolist() if len(run_log.rollouts) else []
+        if len(steps) >= 2 and steps == list(range(len(steps))):
+            complete.append(trial)
+        else:
+            log.warning("trial %d: its rollout is incomplete in the log; not replayed", trial)
+    return complete
+
+
+def warn_unlogged(run_dir: Path, logged: list[int]) -> None:
+    """Warn about trials the run directory's ``summary.csv`` lists as finished that the
+    log lacks (a damaged log, or an older run killed between its summary and its log)."""
+    summary = run_dir / "summary.csv" if run_dir.is_dir() else None
+    if summary is None or not summary.is_file():
+        return
+    try:
+        finished = pd.read_csv(summary)["trial"].astype(int).tolist()
+    except (ValueError, KeyError, pd.errors.ParserError) as error:
+        log.warning("%s is unreadable (%s)", summary, type(error).__name__)
+        return
+    missing = sorted(set(finished) - set(logged))
+    if missing:
+        log.warning(
+            "trials %s are finished (summary.csv) but not whole in the log; their data are in "
+            "%s/trajectories",
+            missing,
+            run_dir,
+        )
 
 
 def replay(run_log: RunLog, streamer: RerunStreamer, trials: list[int]) -> None:
@@ -81,7 +116,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if run_log.truncated:
         log.warning("the log ends early (killed run): replaying the trials it holds whole")
-    available = sorted(run_log.trials["trial"].tolist()) if len(run_log.trials) else []
+    available = complete_trials(run_log)
+    warn_unlogged(args.run_dir, available)
     trials = args.trial or available
     missing = sorted(set(trials) - set(available))
     if missing:
@@ -89,8 +125,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     sketch = None
     if run_log.metadata and "config" in run_log.metadata[0]:
-        config = OmegaConf.create(run_log.metadata[0]["config"])
-        sketch = instantiate(config.system).sketch  # the logged system, for its drawing
+        # the logged system, for its drawing; checked first (see mcpilco.safe_config), and
+        # a plug-in that is not importable here only costs the drawing
+        system = saved_system(run_log.metadata[0]["config"], f"{args.run_dir} (MCAP metadata)")
+        sketch = None if system is None else system.sketch
     if args.connect:
         streamer = RerunStreamer(args.run_dir, mode="connect", url=args.connect, sketch=sketch)
     else:

@@ -22,6 +22,7 @@ from mcap_protobuf.schema import build_file_descriptor_set
 from mcpilco.errors import ConfigError
 from mcpilco.tracking import schema
 from mcpilco.tracking.base import TrialObserver
+from mcpilco.tracking.mcap_scan import ScanReport
 from mcpilco.tracking.reader import iter_raw_messages
 from mcpilco.trajectory import Trajectory
 
@@ -58,10 +59,25 @@ class McapLogger(TrialObserver):
     def _open(self, resumed_after: int) -> None:
         kept: list[tuple[str, bytes]] = []
         if resumed_after >= 0 and self.path.exists():
-            # Keep what the killed run wrote for the finished trials, exactly once.
-            for topic, decoded, data in iter_raw_messages(self.path):
+            # Keep what the killed run wrote for the finished trials, exactly once (a trial
+            # logged but not in the summary is dropped: the resumed run does it again).
+            report, logged = ScanReport(), set()
+            for topic, decoded, data in iter_raw_messages(self.path, report):
                 if getattr(decoded, "trial", 0) <= resumed_after:
                     kept.append((topic, data))
+                    if topic == "/trial":
+                        logged.add(decoded.trial)
+            missing = sorted(set(range(resumed_after + 1)) - logged)
+            for problem in report.problems:
+                log.warning("%s", problem)
+            if missing:
+                log.warning(
+                    "%s lacks finished trials %s (a damaged log, or a run killed between its "
+                    "summary and its log before mcpilco ordered them): they stay missing there; "
+                    "their data are in the run directory",
+                    self.path,
+                    missing,
+                )
         partial = self.path.with_name(f".{self.path.name}.partial")
         stream = open(partial, "wb")  # noqa: SIM115 (closed by finish)
         self._writer = Writer(stream, compression=CompressionType.ZSTD)

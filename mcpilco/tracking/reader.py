@@ -1,9 +1,9 @@
-"""Read a run's MCAP log back into arrays and DataFrames (tolerates a killed writer)."""
+"""Read a run's MCAP log back into arrays and DataFrames (tolerates a killed writer and
+damaged records: what is readable is read, each problem is one warning line)."""
 
 from __future__ import annotations
 
 import logging
-import struct
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -11,54 +11,61 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-import zstandard
-from mcap.exceptions import InvalidMagic, McapError
 from mcap.records import Channel, Message, Metadata, Schema
-from mcap.stream_reader import StreamReader
 from mcap_protobuf.decoder import DecoderFactory
 
+from mcpilco.tracking import schema
+from mcpilco.tracking.mcap_scan import ScanReport, scan_records
 from mcpilco.tracking.schema import TRACE_KEYS
 
 log = logging.getLogger(__name__)
 
 
-class TruncatedLogError(ValueError):
-    """The log ends inside a record: the writer was killed. What came before is usable."""
+def iter_raw_messages(
+    path: Path, report: ScanReport | None = None, metadata: list[dict[str, str]] | None = None
+) -> Iterator[tuple[str, Any, bytes]]:
+    """``(topic, decoded message, raw bytes)`` for every readable message of the file;
+    damage and truncation go to ``report`` (see :mod:`mcpilco.tracking.mcap_scan`), the
+    ``run`` metadata records to ``metadata`` when given.
 
-
-def _records(path: Path) -> Iterator[Any]:
-    """Records in file order; stops (with a warning) where a killed writer left off."""
-    with open(path, "rb") as handle:
-        reader = StreamReader(handle, validate_crcs=True)
-        try:
-            yield from reader.records
-        except InvalidMagic as error:
-            raise ValueError(f"{path} is not an MCAP file (bad magic bytes)") from error
-        except (McapError, EOFError, ValueError, struct.error, zstandard.ZstdError) as error:
-            raise TruncatedLogError(f"{path} ends early ({type(error).__name__})") from error
-
-
-def iter_raw_messages(path: Path) -> Iterator[tuple[str, Any, bytes]]:
-    """``(topic, decoded message, raw bytes)`` for every complete message of the file."""
+    Messages are decoded with the file's own schemas; where a damaged chunk took the
+    channel definitions with it, our writer's fixed channel ids are used (it registers
+    one channel per topic of :data:`schema.TOPICS`, in that order, from id 1).
+    """
+    report = ScanReport() if report is None else report
     schemas: dict[int, Schema] = {}
     channels: dict[int, Channel] = {}
     factory = DecoderFactory()
     decoders: dict[int, Any] = {}
-    try:
-        for record in _records(path):
-            if isinstance(record, Schema):
-                schemas[record.id] = record
-            elif isinstance(record, Channel):
-                channels[record.id] = record
-            elif isinstance(record, Message):
-                channel = channels[record.channel_id]
+    fallback = dict(enumerate(schema.TOPICS.items(), start=1))
+    for record in scan_records(path, report):
+        if isinstance(record, Metadata):
+            if metadata is not None and record.name == "run":
+                metadata.append(dict(record.metadata))
+        elif isinstance(record, Schema):
+            schemas[record.id] = record
+        elif isinstance(record, Channel):
+            channels[record.id] = record
+        elif isinstance(record, Message):
+            channel = channels.get(record.channel_id)
+            if channel is None or channel.schema_id not in schemas:
+                if record.channel_id not in fallback:
+                    continue
+                topic, message_class = fallback[record.channel_id]
+                decode: Any = message_class.FromString
+            else:
+                topic = channel.topic
                 if channel.id not in decoders:
                     decoders[channel.id] = factory.decoder_for(
                         channel.message_encoding, schemas[channel.schema_id]
                     )
-                yield channel.topic, decoders[channel.id](record.data), record.data
-    except TruncatedLogError:
-        return
+                decode = decoders[channel.id]
+            try:
+                decoded = decode(record.data)
+            except Exception:  # a message that does not decode is damage, not a crash
+                report.problems.append(f"{path}: a message on {topic} does not decode")
+                continue
+            yield topic, decoded, record.data
 
 
 @dataclass
@@ -75,6 +82,7 @@ class RunLog:
         trials: one row per finished trial.
         metadata: the ``run`` metadata records (one per start or resume).
         truncated: the file ended inside a record (a killed run).
+        problems: damaged records that were skipped (the rest is read).
     """
 
     rollouts: pd.DataFrame
@@ -84,6 +92,8 @@ class RunLog:
     trials: pd.DataFrame
     metadata: list[dict[str, str]] = field(default_factory=list)
     truncated: bool = False
+    problems: list[str] = field(default_factory=list)
+    """One line per damaged record that was skipped."""
 
     def rollout(self, trial: int) -> pd.DataFrame:
         return self.rollouts[self.rollouts["trial"] == trial].reset_index(drop=True)
@@ -103,8 +113,8 @@ def read_run_log(path: str | Path) -> RunLog:
         raise FileNotFoundError(f"no MCAP log at {path}")
     rollouts, optimization, hyper, trials = [], [], [], []
     particle_steps: dict[int, list[Any]] = {}
-    truncated = False
-    for topic, message, _ in iter_raw_messages(path):
+    report, metadata = ScanReport(), list[dict[str, str]]()
+    for topic, message, _ in iter_raw_messages(path, report, metadata):
         if topic == "/rollout":
             row = {
                 "trial": message.trial,
@@ -141,16 +151,14 @@ def read_run_log(path: str | Path) -> RunLog:
                     )
                 }
             )
-    metadata = []
-    try:
-        for record in _records(path):
-            if isinstance(record, Metadata) and record.name == "run":
-                metadata.append(dict(record.metadata))
-    except TruncatedLogError as error:
-        truncated = True
+    if report.truncated:
         log.warning(
-            "%s: reading the complete records before it (a killed or running writer)", error
+            "%s ends inside a record (a killed or running writer): reading the "
+            "complete records before it",
+            path,
         )
+    for problem in report.problems:
+        log.warning("%s", problem)
     particles = {
         trial: {
             "states": np.stack(
@@ -169,5 +177,6 @@ def read_run_log(path: str | Path) -> RunLog:
         pd.DataFrame(hyper),
         pd.DataFrame(trials),
         metadata,
-        truncated,
+        report.truncated,
+        report.problems,
     )
