@@ -159,7 +159,10 @@ def test_an_ode_step_never_blocks(no_hang: None) -> None:
         stiff.step(np.array([1.0, 1.0]), np.array([0.0]))
 
 
-def test_mujoco_instability_is_an_error_not_a_silent_reset() -> None:
+def test_mujoco_instability_is_an_error_not_a_silent_reset(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warning to MUJOCO_LOG.TXT here
     simulation = CartPoleMujoco(trial_duration=0.5).simulation
     with pytest.raises(SimulationError, match="BADQVEL"):
         simulation.step(np.zeros(2), np.array([1e30, 0.0]), np.array([0.0]))
