@@ -12,10 +12,10 @@ import numpy as np
 import pandas as pd
 import pytest
 from mcap.reader import make_reader
+from synthetic_log import write_log
 
 from mcpilco.run_storage import RunDirectory
-from mcpilco.tracking import McapLogger, read_run_log
-from mcpilco.trajectory import Trajectory
+from mcpilco.tracking import read_run_log
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = [
@@ -83,22 +83,6 @@ def test_a_kill_around_the_summary_row_never_loses_a_finished_trial_from_the_log
     for trial in range(4):
         states = log.rollout(trial)[[f"state_{i}" for i in range(4)]].to_numpy()
         np.testing.assert_array_equal(states, RunDirectory(tmp_path).load_trajectory(trial).states)
-
-
-def write_log(path: Path, trials: int) -> None:
-    """A finished log of ``trials`` synthetic trials through the real logger."""
-    rng = np.random.default_rng(0)
-    logger = McapLogger(path)
-    logger.run_started({"config": "seed: 0"}, -1)
-    for trial in range(trials):
-        states = rng.normal(size=(11, 4))
-        logger.particles_predicted(trial, rng.normal(size=(11, 50, 4)), rng.random((11, 50)), 0.05)
-        logger.rollout(
-            trial, Trajectory(states, states, rng.normal(size=(10, 1)), 0.05), rng.random(11),
-            rng.random(11),
-        )  # fmt: skip
-        logger.trial_finished(trial, {"eval_cost": float(trial)})
-    logger.close()
 
 
 def chunk_offsets(path: Path) -> list[int]:

@@ -10,18 +10,16 @@ import textwrap
 import time
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 import pytest
 import torch
 from omegaconf import OmegaConf
+from synthetic_log import write_log
 
 from mcpilco.errors import CheckpointError, RefusedTargetError, RunInUseError
 from mcpilco.run_storage import RunDirectory
 from mcpilco.safe_config import check_targets, config_from_text, locate_class
 from mcpilco.systems import CartPole
-from mcpilco.tracking import McapLogger
-from mcpilco.trajectory import Trajectory
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = [
@@ -175,22 +173,6 @@ def test_a_hostile_config_yaml_runs_nothing_when_evaluated(tmp_path: Path) -> No
     assert summary.returncode == 0, summary.stderr[-2000:]
 
 
-def write_log(run_dir: Path, config_yaml: str, trials: int = 2) -> None:
-    """A small MCAP log through the real logger, with ``config_yaml`` as its metadata."""
-    rng = np.random.default_rng(0)
-    logger = McapLogger(run_dir)
-    logger.run_started({"config": config_yaml}, -1)
-    for trial in range(trials):
-        states = rng.normal(size=(11, 4))
-        logger.particles_predicted(trial, rng.normal(size=(11, 50, 4)), rng.random((11, 50)), 0.05)
-        logger.rollout(
-            trial, Trajectory(states, states, rng.normal(size=(10, 1)), 0.05), rng.random(11),
-            rng.random(11),
-        )  # fmt: skip
-        logger.trial_finished(trial, {"eval_cost": 1.0, "success": False})
-    logger.close()
-
-
 @pytest.mark.parametrize(
     "system",
     [
@@ -203,7 +185,7 @@ def test_replay_of_a_foreign_log_runs_nothing_and_still_replays(
 ) -> None:
     victim = tmp_path / "victim.txt"
     victim.write_text("precious")
-    write_log(tmp_path, f"system: {system.replace('VICTIM', str(victim))}\nseed: 0\n")
+    write_log(tmp_path, 2, f"system: {system.replace('VICTIM', str(victim))}\nseed: 0\n")
     result = run_module("runners.replay", str(tmp_path))
     assert result.returncode == 0, result.stderr[-2000:]
     assert victim.read_text() == "precious"

@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 from mcap.reader import make_reader
 from omegaconf import OmegaConf
+from synthetic_log import write_log
 
 from analysis.plot_run import plot_trial
 from mcpilco.run_storage import RunDirectory
@@ -195,23 +196,7 @@ def test_a_file_that_is_not_mcap_fails_clearly(tmp_path: Path) -> None:
 
 
 def test_truncated_anywhere_reads_a_prefix_of_whole_trials(tmp_path: Path) -> None:
-    from mcpilco.tracking import McapLogger
-    from mcpilco.trajectory import Trajectory
-
-    rng = np.random.default_rng(0)
-    logger = McapLogger(tmp_path)
-    logger.run_started({"config": "x: 1"}, -1)
-    for trial in range(4):
-        states = rng.normal(size=(21, 4))
-        logger.particles_predicted(trial, rng.normal(size=(21, 60, 4)), rng.random((21, 60)), 0.05)
-        logger.rollout(
-            trial,
-            Trajectory(states, states, rng.normal(size=(20, 1)), 0.05),
-            rng.random(21),
-            rng.random(21),
-        )
-        logger.trial_finished(trial, {"eval_cost": 1.0})
-    logger.close()
+    write_log(tmp_path, 4, steps=20)
     data = (tmp_path / "rollouts.mcap").read_bytes()
     previous = -1
     for fraction in np.linspace(0.02, 0.98, 25):
