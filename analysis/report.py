@@ -73,9 +73,13 @@ def load_sweep(paths: Iterable[Path]) -> tuple[pd.DataFrame, list[Path]]:
         summary["run"] = str(run)
         rows.append(summary)
     table = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
-    if not table.empty:
-        table["success"] = table["success"].astype(bool)
+    if "success" in table.columns:  # absent for a system without a success criterion
+        table["success"] = table["success"].astype("boolean").fillna(False).astype(bool)
     return table, failed
+
+
+PRECISION_COLUMNS = ("final_position_error", "final_angle_error")
+"""What Table 2.2 needs (the cart-pole's final errors)."""
 
 
 def success_rates(trials: pd.DataFrame) -> pd.DataFrame:
@@ -172,10 +176,11 @@ def cumulative_cost_figure(
                 "median": by_trial.median(),
                 "low": by_trial.quantile(0.05),
                 "high": by_trial.quantile(0.95),
-                "rate": group.groupby("trial")["success"].mean(),
                 "runs": by_trial.size(),
             }
         )
+        if "success" in group.columns:
+            stats["rate"] = group.groupby("trial")["success"].mean()
         axis.fill_between(stats.index, stats["low"], stats["high"], alpha=0.3, label="5–95 %")
         axis.plot(stats.index, stats["median"], "o-", label="median")
         for reference, style in zip(references, ("--", ":"), strict=False):
@@ -187,7 +192,7 @@ def cumulative_cost_figure(
                 label=f"{reference.name} ({reference.swings} swing{'s' * (reference.swings > 1)})",
             )
         for trial, row in stats.iterrows():
-            if trial >= 1:
+            if trial >= 1 and "rate" in stats.columns:
                 axis.annotate(
                     f"{100 * row['rate']:.0f}%", (trial, row["high"]), ha="center", va="bottom"
                 )
@@ -210,14 +215,28 @@ def write_report(paths: Sequence[Path], out: Path, command: str) -> dict[str, Pa
     if trials.empty:
         raise SystemExit(f"no finished trials under {', '.join(map(str, paths))}")
     out.mkdir(parents=True, exist_ok=True)
-    rates = success_rates(trials)
-    rates.to_csv(out / "success_rates.csv", index=False)
-    (out / "success_rates.md").write_text(success_markdown(rates))
-    table = precision(trials)
-    table.to_csv(out / "precision.csv", index=False)
-    (out / "precision.md").write_text(precision_markdown(table))
-    references = reference_costs(trials)
-    figures = cumulative_cost_figure(trials, out, references)
+    sections, references, figures = [], list[ReferenceCost](), list[Path]()
+    if "success" in trials.columns:
+        rates = success_rates(trials)
+        rates.to_csv(out / "success_rates.csv", index=False)
+        (out / "success_rates.md").write_text(success_markdown(rates))
+        sections.append("- [success rates per trial](success_rates.md) ([csv](success_rates.csv))")
+        references = reference_costs(trials)
+    else:
+        sections.append("- no success rates: the system reports no success criterion")
+    if "success" in trials.columns and set(PRECISION_COLUMNS) <= set(trials.columns):
+        table = precision(trials)
+        table.to_csv(out / "precision.csv", index=False)
+        (out / "precision.md").write_text(precision_markdown(table))
+        sections.append(
+            "- [precision at the target, Table 2.2](precision.md) ([csv](precision.csv))"
+        )
+    else:
+        sections.append("- no Table 2.2: the system reports no final position/angle errors")
+    if "eval_cost" in trials.columns and trials["eval_cost"].notna().any():
+        figures = cumulative_cost_figure(trials, out, references)
+    else:
+        sections.append("- no cumulative-cost figure: the system reports no evaluation cost")
     errors = prediction_errors(trials)
     if not errors.empty:
         figures += prediction_error_figure(errors, out)
@@ -233,8 +252,7 @@ def write_report(paths: Sequence[Path], out: Path, command: str) -> dict[str, Pa
         "|---|---|",
         *[f"| {name} | {count} |" for name, count in runs.items()],
         "",
-        "- [success rates per trial](success_rates.md) ([csv](success_rates.csv))",
-        "- [precision at the target, Table 2.2](precision.md) ([csv](precision.csv))",
+        *sections,
         *[f"- ![{p.stem}]({p.name})" for p in figures if p.suffix == ".png"],
         "",
         "Reference lines (measured here, analysis/swing_up.py: median cumulative cost of the "
@@ -251,7 +269,7 @@ def write_report(paths: Sequence[Path], out: Path, command: str) -> dict[str, Pa
         "",
     ]
     (out / "index.md").write_text("\n".join(index))
-    return {"index": out / "index.md", "success": out / "success_rates.csv"}
+    return {"index": out / "index.md"}
 
 
 def main() -> None:

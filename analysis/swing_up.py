@@ -65,7 +65,10 @@ def reference_costs(trials: pd.DataFrame) -> list[ReferenceCost]:
     successful = trials[trials["success"] & (trials["trial"] >= 1)]
     swings, costs = [], []
     for row in successful.itertuples():
-        angle, velocity = pole_indices(str(row.run))
+        try:
+            angle, velocity = pole_indices(str(row.run))
+        except (IndexError, ValueError):  # a system without a revolute pole
+            continue
         states = RunDirectory(str(row.run)).load_trajectory(int(row.trial)).states
         count = pole_swings(states[:, angle], states[:, velocity])
         if count is not None:

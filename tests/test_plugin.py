@@ -112,3 +112,16 @@ def test_user_system_and_cost_plug_in(tmp_path: Path) -> None:
         assert ("my_plants.Pendulum" in replay.stderr) is warned
         assert "Traceback" not in replay.stderr
         assert (tmp_path / "run" / "replay.rrd").stat().st_size > 1000
+    report = subprocess.run(
+        [sys.executable, "-m", "analysis.report", str(tmp_path / "run")],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert report.returncode == 0, report.stderr[-2000:]
+    index = (tmp_path / "run" / "report" / "index.md").read_text()
+    assert "no success rates: the system reports no success criterion" in index
+    assert (tmp_path / "run" / "report" / "prediction_errors.png").is_file()
+    figure = subprocess.run(
+        [sys.executable, "-m", "analysis.plot_run", str(tmp_path / "run"), "--trial", "1"],
+        cwd=ROOT, env=env, capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert figure.returncode == 0, figure.stderr[-2000:]
