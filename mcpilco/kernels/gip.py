@@ -1,0 +1,140 @@
+"""Geometrically inspired polynomial kernel (GIP, thesis eq. 5.6; Dalla Libera & Carli).
+
+Rigid-body inverse dynamics τ = B(q) q̈ + C(q, q̇) q̇ + g(q) is a polynomial in q̈ (degree
+1), q̇ (degree 2) and q̃ — the sines and cosines of the revolute angles and the prismatic
+coordinates — each joint's q̃_j entering with degree at most 2. The GIP kernel spans
+exactly such polynomials:
+
+    k(x, x') = (k_P¹(q̈, q̈') + k_P²(q̇, q̇')) · ∏_j k_P²(q̃_j, q̃_j')
+
+with k_Pᵈ(z, z') = ∏_{r=1..d} (σ²_r + zᵀ Σ_r z') the multiplicative polynomial kernel
+(Σ_r diagonal), q̃_j = (cos q_j, sin q_j) for a revolute joint and (q_j, 0) for a
+prismatic one. The constant σ² of k_P¹ carries the gravity term g(q).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import torch
+from torch import nn
+
+from mcpilco.errors import ConfigError
+from mcpilco.kernels.base import Kernel, KernelShape, PreparedKernel
+from mcpilco.kernels.polynomial import MultiplicativePolynomial
+
+
+class GeometricPolynomial(Kernel):
+    """The GIP kernel on inputs holding joint positions, velocities and accelerations.
+
+    Args:
+        shape: outputs and input dimension D.
+        positions, velocities, accelerations: input columns of q, q̇, q̈ (n each); by
+            default D = 3n ordered [q, q̇, q̈].
+        prismatic: indices (into the n joints) of prismatic joints; the others are
+            revolute.
+        offset: initial σ² of every factor. weight: initial diagonal of every Σ_r.
+    """
+
+    def __init__(
+        self,
+        shape: KernelShape,
+        positions: Sequence[int] | None = None,
+        velocities: Sequence[int] | None = None,
+        accelerations: Sequence[int] | None = None,
+        prismatic: Sequence[int] = (),
+        offset: float = 1.0,
+        weight: float = 1.0,
+    ) -> None:
+        super().__init__(shape)
+        if positions is None and velocities is None and accelerations is None:
+            if shape.input_dim % 3:
+                raise ConfigError(
+                    f"kernel GeometricPolynomial: D={shape.input_dim} is not 3n; give "
+                    "positions, velocities and accelerations"
+                )
+            n = shape.input_dim // 3
+            positions, velocities, accelerations = range(n), range(n, 2 * n), range(2 * n, 3 * n)
+        if positions is None or velocities is None or accelerations is None:
+            raise ConfigError(
+                "kernel GeometricPolynomial needs positions, velocities and accelerations "
+                "all given or all null"
+            )
+        columns = [tuple(int(c) for c in dims) for dims in (positions, velocities, accelerations)]
+        n = len(columns[0])
+        if (
+            n == 0
+            or any(len(c) != n for c in columns)
+            or not all(0 <= c < shape.input_dim for dims in columns for c in dims)
+        ):
+            raise ConfigError(
+                f"kernel GeometricPolynomial: positions/velocities/accelerations must be n "
+                f"columns each within D={shape.input_dim}, got {columns}"
+            )
+        if not all(0 <= j < n for j in prismatic):
+            raise ConfigError(
+                f"kernel GeometricPolynomial.prismatic={list(prismatic)} not in 0..{n - 1}"
+            )
+        self.positions = columns[0]
+        self.register_buffer("revolute", torch.tensor([j not in set(prismatic) for j in range(n)]))
+        self.acceleration_term = MultiplicativePolynomial(
+            shape, degree=1, offset=offset, weight=weight, active_dims=columns[2]
+        )
+        self.velocity_term = MultiplicativePolynomial(
+            shape, degree=2, offset=offset, weight=weight, active_dims=columns[1]
+        )
+        g = shape.num_outputs
+        self.log_joint_offset = nn.Parameter(
+            torch.full((g, n, 2), float(torch.log(torch.tensor(offset))), dtype=torch.float64)
+        )  # [G, n joints, 2 factors]
+        self.log_joint_weight = nn.Parameter(
+            torch.full((g, n, 2, 2), float(torch.log(torch.tensor(weight))), dtype=torch.float64)
+        )  # [G, n joints, 2 factors, 2 features]
+        if offset <= 0 or weight <= 0:
+            raise ConfigError(
+                f"kernel GeometricPolynomial offset and weight must be > 0, got {offset}, {weight}"
+            )
+
+    def joint_features(self, x: torch.Tensor) -> torch.Tensor:
+        """q̃ ``[N, n, 2]``: (cos q_j, sin q_j) for revolute joints, (q_j, 0) for prismatic."""
+        q = x[..., list(self.positions)]
+        revolute = torch.stack([torch.cos(q), torch.sin(q)], -1)
+        prismatic = torch.stack([q, torch.zeros_like(q)], -1)
+        return torch.where(self.revolute[:, None], revolute, prismatic)
+
+    def _configuration(self, f1: torch.Tensor, f2: torch.Tensor) -> torch.Tensor:
+        """k_Q ``[G, N1, N2]`` from joint features ``[N1, n, 2]``, ``[N2, n, 2]``."""
+        weights = torch.exp(self.log_joint_weight)  # [G, n, 2, 2]
+        offsets = torch.exp(self.log_joint_offset)  # [G, n, 2]
+        total: torch.Tensor | None = None
+        for joint in range(f1.shape[1]):
+            scaled = f1[None, None, :, joint, :] * weights[:, joint, :, None, :]  # [G, 2, N1, 2]
+            factors = torch.matmul(scaled, f2[:, joint, :].T) + offsets[:, joint, :, None, None]
+            product = factors.prod(dim=1)  # [G, N1, N2]
+            total = product if total is None else total * product
+        assert total is not None
+        return total
+
+    def forward(self, x1: torch.Tensor, x2: torch.Tensor) -> torch.Tensor:
+        motion = self.acceleration_term(x1, x2) + self.velocity_term(x1, x2)
+        return motion * self._configuration(self.joint_features(x1), self.joint_features(x2))
+
+    def diag(self, x: torch.Tensor) -> torch.Tensor:
+        features = self.joint_features(x).square()  # [N, n, 2]
+        weights = torch.exp(self.log_joint_weight)
+        factors = torch.einsum("njf,gjrf->gjrn", features, weights)
+        factors = factors + torch.exp(self.log_joint_offset)[..., None]
+        configuration = factors.flatten(1, 2).prod(dim=1)  # [G, N]
+        motion = self.acceleration_term.diag(x) + self.velocity_term.diag(x)
+        return motion * configuration
+
+    def prepare(self, x2: torch.Tensor) -> PreparedKernel:
+        """Cross-covariances to fixed training inputs with their joint features computed once."""
+        features2 = self.joint_features(x2)
+
+        def cross(x1: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+            motion = self.acceleration_term(x1, x2) + self.velocity_term(x1, x2)
+            covariance = motion * self._configuration(self.joint_features(x1), features2)
+            return covariance, self.diag(x1)
+
+        return cross
