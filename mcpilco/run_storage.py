@@ -70,6 +70,15 @@ class RunDirectory:
 
         self._write(self.path / "trajectories" / f"trial_{trial:02d}.npz", write)
 
+    def save_arrays(self, name: str, arrays: Mapping[str, np.ndarray]) -> None:
+        """``name`` (a relative ``.npz`` path) holding ``arrays``, written atomically."""
+
+        def write(p: Path) -> None:
+            with open(p, "wb") as handle:
+                np.savez(handle, **arrays)
+
+        self._write(self.path / name, write)
+
     def load_trajectory(self, trial: int) -> Trajectory:
         with np.load(self.path / "trajectories" / f"trial_{trial:02d}.npz") as arrays:
             return Trajectory.from_arrays(dict(arrays))
@@ -81,12 +90,13 @@ class RunDirectory:
             self.path / "optimization" / f"trial_{trial:02d}.csv", lambda p: frame.to_csv(p)
         )
 
-    def save_checkpoint(self, trial: int, name: str, state: Mapping[str, torch.Tensor]) -> None:
+    def save_tensors(self, name: str, state: Mapping[str, torch.Tensor]) -> None:
+        """A dict of tensors (moved to the CPU) at the relative path ``name``, atomically."""
         tensors = {key: value.detach().cpu() for key, value in state.items()}
-        self._write(
-            self.path / "checkpoints" / f"trial_{trial:02d}" / f"{name}.pt",
-            lambda p: torch.save(tensors, p),
-        )
+        self._write(self.path / name, lambda p: torch.save(tensors, p))
+
+    def save_checkpoint(self, trial: int, name: str, state: Mapping[str, torch.Tensor]) -> None:
+        self.save_tensors(f"checkpoints/trial_{trial:02d}/{name}.pt", state)
 
     def load_checkpoint(self, trial: int, name: str) -> dict[str, torch.Tensor]:
         return load_tensors(self.path / "checkpoints" / f"trial_{trial:02d}" / f"{name}.pt")
@@ -142,17 +152,18 @@ class RunDirectory:
     LOCK_FILE = ".mcpilco.lock"
 
     @contextmanager
-    def locked(self) -> Iterator[None]:
+    def locked(self, wait: bool = False) -> Iterator[None]:
         """Hold the directory's advisory lock (``flock``) for the block; a second process
-        asking for it gets :class:`RunInUseError` at once. The kernel releases the lock
-        when its process ends, however it ends, so a killed run never leaves it stuck."""
+        asking for it gets :class:`RunInUseError` at once (or, with ``wait``, blocks until
+        the holder is done). The kernel releases the lock when its process ends, however
+        it ends, so a killed run never leaves it stuck."""
         if fcntl is None:
             log.warning("no advisory locks on this platform: %s is not protected", self.path)
             yield
             return
         handle = open(self.path / self.LOCK_FILE, "a+")  # noqa: SIM115 (closed below)
         try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            fcntl.flock(handle, fcntl.LOCK_EX if wait else fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
             handle.seek(0)
             holder = handle.read().strip() or "another process"

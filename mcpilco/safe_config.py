@@ -39,6 +39,8 @@ _DOTTED = re.compile(r"[A-Za-z][A-Za-z0-9_]*(\.[A-Za-z][A-Za-z0-9_]*)+")
 
 def extension_points() -> tuple[type, ...]:
     """The base classes a ``_target_`` may derive from (one per concept)."""
+    from mcpilco.control.controllers import TrackingController
+    from mcpilco.control.robot import TorqueControlledRobot
     from mcpilco.costs.base import Cost
     from mcpilco.estimators.base import StateEstimator
     from mcpilco.gp.exact import ExactGP
@@ -63,6 +65,8 @@ def extension_points() -> tuple[type, ...]:
         ExplorationController,
         PolicyOptimizer,
         TrialObserver,
+        TorqueControlledRobot,
+        TrackingController,
     )
 
 
@@ -166,6 +170,8 @@ def saved_system(config_text: str, source: str) -> Any | None:
 
     try:
         config = config_from_text(config_text, source)
+        if "system" not in config:  # e.g. a torque-control run: nothing to draw
+            return None
         return make(config.system)
     except Exception as error:  # anything: a log must stay replayable as data
         message = str(error).splitlines()[0] if str(error) else type(error).__name__

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import logging
 import sys
-import traceback
 from pathlib import Path
 
 import hydra
@@ -14,14 +13,7 @@ from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
 from mcpilco.build import build, make
-from mcpilco.errors import (
-    CheckpointError,
-    ConfigError,
-    NonFiniteError,
-    NotPositiveDefiniteError,
-    RunInUseError,
-    SimulationError,
-)
+from mcpilco.errors import ConfigError, RunInUseError
 from mcpilco.optim.policy_optimizer import StepInfo
 from mcpilco.run_storage import RunDirectory
 from mcpilco.safe_config import load_run_config
@@ -29,6 +21,7 @@ from mcpilco.systems.base import MechanicalSystem
 from mcpilco.tracking.base import TrialObserver
 from mcpilco.tracking.metadata import run_metadata
 from mcpilco.trial_loop import TrialLoop
+from runners.failures import EXPECTED_ERRORS, record_failure
 from runners.process import keep_freed_memory
 
 CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
@@ -155,31 +148,6 @@ def run_locked(cfg: DictConfig, storage: RunDirectory) -> None:
         for bar in bars.values():
             bar.close()
     log.info("summary:\n%s", storage.summary().to_string(index=False))
-
-
-def record_failure(run_dir: Path, error: BaseException) -> None:
-    """Write ``failed.txt`` (the traceback) into ``run_dir`` unless another process has
-    taken the directory since."""
-    if not run_dir.is_dir():
-        return
-    storage = RunDirectory(run_dir)
-    text = "".join(traceback.format_exception(type(error), error, error.__traceback__))
-    try:
-        with storage.locked():
-            storage.record_failure(text)
-    except RunInUseError:
-        log.warning("%s was taken by another process; failed.txt not written", run_dir)
-
-
-EXPECTED_ERRORS: tuple[type[Exception], ...] = (
-    ConfigError,
-    NonFiniteError,
-    SimulationError,
-    NotPositiveDefiniteError,
-    CheckpointError,
-)
-"""Failures with a one-line message that says everything: logged as that line (the
-traceback goes to ``failed.txt``), exit status 2 for a bad config and 1 otherwise."""
 
 
 @hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="train")

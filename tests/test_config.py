@@ -19,14 +19,24 @@ from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
 
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "conf"
+CONTROL_ONLY = {"robot": None, "controller": None, "kernel": {"gip"}}
+"""Groups (None: all of it) and options of runners.control (tests/test_control.py), not of
+runners.train: the GIP kernel's default input layout is the inverse dynamics' [q, q̇, q̈]."""
 GROUPS = sorted(
-    p.name for p in CONFIG_DIR.iterdir() if p.is_dir() and p.name not in ("experiment", "hydra")
+    p.name
+    for p in CONFIG_DIR.iterdir()
+    if p.is_dir()
+    and p.name not in ("experiment", "hydra")
+    and (p.name not in CONTROL_ONLY or CONTROL_ONLY[p.name] is not None)
 )
-EXPERIMENTS = sorted(p.stem for p in (CONFIG_DIR / "experiment").glob("*.yaml"))
+EXPERIMENTS = sorted(
+    p.stem for p in (CONFIG_DIR / "experiment").glob("*.yaml") if not p.stem.startswith("fl_")
+)
 
 
 def options(group: str) -> list[str]:
-    return sorted(p.stem for p in (CONFIG_DIR / group).glob("*.yaml"))
+    excluded = CONTROL_ONLY.get(group) or set()
+    return sorted(p.stem for p in (CONFIG_DIR / group).glob("*.yaml") if p.stem not in excluded)
 
 
 def make_config(*overrides: str) -> DictConfig:

@@ -156,9 +156,17 @@ class McapLogger(TrialObserver):
             )
 
     def rollout(
-        self, trial: int, trajectory: Trajectory, costs: np.ndarray, eval_costs: np.ndarray
+        self,
+        trial: int,
+        trajectory: Trajectory,
+        costs: np.ndarray,
+        eval_costs: np.ndarray,
+        kind: str | None = None,
     ) -> None:
-        kind = "exploration" if trial == 0 else "policy"
+        """Every sample of a rollout; ``kind`` labels it (default: ``exploration`` for trial
+        0, ``policy`` after)."""
+        if kind is None:
+            kind = "exploration" if trial == 0 else "policy"
         for step, time_s in enumerate(trajectory.times):
             action = trajectory.actions[step] if step < trajectory.num_steps else []
             self._write(

@@ -1,0 +1,109 @@
+"""Feedback-linearisation torque controllers (thesis §5.1): the true-model reference,
+GP-FL (τ = f̂(q, q̇, a)) and GP-FL-DCE (τ = B̂(q) a + n̂(q, q̇))."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+import torch
+
+from mcpilco.control.inverse_dynamics import GPInverseDynamics
+from mcpilco.control.robot import TorqueControlledRobot
+from mcpilco.errors import ConfigError
+
+
+class TrackingController(ABC):
+    """τ for the reference (r, ṙ, r̈) from a = r̈ + K_p e + K_d ė (eq. 5.2a), e = r − q,
+    K_p = ω² I, K_d = 2ζω I (decoupled error dynamics of natural frequency ω, damping ζ).
+
+    Subclass it for your own controller (``controller._target_=my_pkg.MyController``).
+
+    Args:
+        omega: ω in rad/s. zeta: ζ.
+    """
+
+    needs_model: bool = False
+    """Whether :meth:`bind` needs a fitted :class:`GPInverseDynamics`."""
+
+    def __init__(self, omega: float = 100.0, zeta: float = 2.0) -> None:
+        self.omega, self.zeta = _gain("omega", omega), _gain("zeta", zeta)
+        self.kp, self.kd = self.omega**2, 2 * self.zeta * self.omega
+
+    def bind(self, robot: TorqueControlledRobot, model: GPInverseDynamics | None) -> None:
+        """Give the controller the robot (for its true model) and the GP model."""
+        self.robot, self.model = robot, model
+
+    def acceleration(
+        self,
+        positions: np.ndarray,
+        velocities: np.ndarray,
+        reference: tuple[np.ndarray, np.ndarray, np.ndarray],
+    ) -> np.ndarray:
+        """a ``[n]`` (rad/s²) of eq. 5.2a."""
+        r, rd, rdd = reference
+        return rdd + self.kp * (r - positions) + self.kd * (rd - velocities)
+
+    @abstractmethod
+    def torque(
+        self, positions: np.ndarray, velocities: np.ndarray, acceleration: np.ndarray
+    ) -> np.ndarray:
+        """τ ``[n]`` (N m) that should give the joints acceleration ``a``."""
+
+    def __call__(
+        self,
+        positions: np.ndarray,
+        velocities: np.ndarray,
+        reference: tuple[np.ndarray, np.ndarray, np.ndarray],
+    ) -> np.ndarray:
+        return self.torque(
+            positions, velocities, self.acceleration(positions, velocities, reference)
+        )
+
+
+def _gain(name: str, value: float) -> float:
+    """A positive finite gain; one-line error naming ``controller.<name>`` otherwise."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"controller.{name} must be a positive number, got {value!r}") from None
+    if not np.isfinite(number) or number <= 0:
+        raise ConfigError(f"controller.{name} must be positive, got {value!r}")
+    return number
+
+
+class TrueModelFL(TrackingController):
+    """τ = B(q) a + n(q, q̇) with the robot's own rigid-body model (the reference)."""
+
+    def torque(
+        self, positions: np.ndarray, velocities: np.ndarray, acceleration: np.ndarray
+    ) -> np.ndarray:
+        return self.robot.inverse_dynamics(positions, velocities, acceleration)
+
+
+class GPFL(TrackingController):
+    """GP-FL: τ = f̂(q, q̇, a), the GP's inverse dynamics at the commanded acceleration."""
+
+    needs_model = True
+
+    def torque(
+        self, positions: np.ndarray, velocities: np.ndarray, acceleration: np.ndarray
+    ) -> np.ndarray:
+        assert self.model is not None
+        inputs = torch.from_numpy(np.concatenate([positions, velocities, acceleration]))[None]
+        return self.model.torques(inputs)[0].numpy()
+
+
+class GPFLDCE(TrackingController):
+    """GP-FL-DCE: τ = B̂(q) a + n̂(q, q̇) with B̂, n̂ estimated from the GP (eq. 5.7–5.9)."""
+
+    needs_model = True
+
+    def torque(
+        self, positions: np.ndarray, velocities: np.ndarray, acceleration: np.ndarray
+    ) -> np.ndarray:
+        assert self.model is not None
+        inertia, bias, _ = self.model.components(
+            torch.from_numpy(positions), torch.from_numpy(velocities)
+        )
+        return (inertia.numpy() @ acceleration) + bias.numpy()

@@ -1,0 +1,167 @@
+"""A GP model of the inverse dynamics τ = f(q, q̇, q̈), one GP per joint (thesis §5.1.2),
+and the dynamics components estimated from it (eq. 5.7–5.9)."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from mcpilco.control.data import InverseDynamicsData
+from mcpilco.errors import ConfigError
+from mcpilco.gp.exact import ExactGP
+from mcpilco.gp.fit import MarginalLikelihoodFit
+from mcpilco.gp.linalg import cholesky_with_jitter
+from mcpilco.kernels.base import KernelFactory, KernelShape
+
+
+@dataclass
+class InverseDynamicsFit:
+    """What fitting cost: points used for the hyper-parameters and for the posterior,
+    −log p(y|X)/N on the fitting subset, seconds for ML-II and for the full factorisation."""
+
+    fit_points: int
+    posterior_points: int
+    negative_log_likelihood: float
+    hyperparameter_seconds: float
+    posterior_seconds: float
+
+
+class GPInverseDynamics:
+    """n independent GPs f̂_i(q, q̇, q̈) (posterior means) of the joint torques.
+
+    Inputs [q, q̇, q̈] enter the kernel with q̇ and q̈ divided by their training std (a
+    fixed linear map: a polynomial kernel stays polynomial in them) and the torques are
+    standardised per joint; predictions are in N m.
+
+    Hyper-parameters are trained by marginal likelihood on ``fit_points`` samples drawn at
+    random (all when None), the posterior mean uses every sample.
+
+    Args:
+        kernel: kernel factory (a ``kernel=`` config), completed with n outputs, 3n inputs.
+        num_joints: n.
+        noise_std: initial noise std of the standardised torques.
+        fit_points: samples for ML-II (None: all).
+        max_iterations: L-BFGS iterations of the fit.
+        block_size: rows of the kernel matrix computed at once (memory).
+    """
+
+    def __init__(
+        self,
+        kernel: KernelFactory,
+        num_joints: int,
+        noise_std: float = 0.1,
+        fit_points: int | None = 1000,
+        max_iterations: int = 200,
+        block_size: int = 500,
+    ) -> None:
+        if fit_points is not None and fit_points < 10:
+            raise ConfigError(f"gp.fit_points={fit_points} must be >= 10 or null")
+        self.num_joints = num_joints
+        self.gp = ExactGP(
+            kernel(KernelShape(num_joints, 3 * num_joints)),
+            noise_std=noise_std,
+            output_names=[f"tau{j + 1}" for j in range(num_joints)],
+        )
+        self.fitter = MarginalLikelihoodFit(max_iterations=max_iterations)
+        self.fit_points = fit_points
+        self.block_size = block_size
+        self.input_scale = torch.ones(3 * num_joints, dtype=torch.float64)
+        self.target_scale = torch.ones(num_joints, dtype=torch.float64)
+        self._prepared = None
+        self._alpha: torch.Tensor | None = None  # [G, N, 1]
+
+    # --------------------------------------------------------------------- fitting
+    def _scaled(self, inputs: torch.Tensor) -> torch.Tensor:
+        return inputs / self.input_scale
+
+    def fit(self, data: InverseDynamicsData, generator: torch.Generator) -> InverseDynamicsFit:
+        """ML-II on a random subset, then the posterior on all of ``data``."""
+        inputs = torch.as_tensor(data.inputs, dtype=torch.float64)
+        targets = torch.as_tensor(data.torques, dtype=torch.float64)
+        n = self.num_joints
+        scale = torch.ones(3 * n, dtype=torch.float64)
+        scale[n:] = inputs[:, n:].std(0).clamp_min(1e-9)
+        self.input_scale, self.target_scale = scale, targets.std(0).clamp_min(1e-9)
+        x, y = self._scaled(inputs), targets / self.target_scale
+        count = x.shape[0] if self.fit_points is None else min(self.fit_points, x.shape[0])
+        subset = torch.randperm(x.shape[0], generator=generator)[:count]
+        start = time.perf_counter()
+        self.gp.set_data(x[subset], y[subset])
+        nll = self.fitter(self.gp)
+        hyper_seconds = time.perf_counter() - start
+        start = time.perf_counter()
+        self._set_posterior(x, y)
+        return InverseDynamicsFit(
+            count, x.shape[0], nll, hyper_seconds, time.perf_counter() - start
+        )
+
+    @torch.no_grad()
+    def _set_posterior(self, x: torch.Tensor, y: torch.Tensor) -> None:
+        """α = (K + σ² I)⁻¹ y on all samples, the kernel matrix built in row blocks."""
+        self.gp.set_data(x, y)
+        kernel, size = self.gp.kernel, x.shape[0]
+        gram = torch.empty(self.num_joints, size, size, dtype=x.dtype)
+        for start in range(0, size, self.block_size):
+            gram[:, start : start + self.block_size] = kernel(x[start : start + self.block_size], x)
+        gram.diagonal(dim1=-2, dim2=-1).add_(self.gp.noise_variance[:, None])
+        factor = cholesky_with_jitter(gram, f"GP outputs {self.gp.output_names}")
+        del gram
+        self._alpha = torch.cholesky_solve(y.T.unsqueeze(-1), factor)
+        self._prepared = kernel.prepare(x)
+
+    # ------------------------------------------------------------------ prediction
+    @torch.no_grad()
+    def torques(self, inputs: torch.Tensor) -> torch.Tensor:
+        """f̂(q, q̇, q̈) ``[M, n]`` (N m) at inputs ``[M, 3n]`` = [q, q̇, q̈]."""
+        if self._prepared is None or self._alpha is None:
+            raise RuntimeError("GPInverseDynamics used before fit or load")
+        cross, _ = self._prepared(self._scaled(inputs))  # [G, M, N]
+        return torch.matmul(cross, self._alpha)[..., 0].T * self.target_scale
+
+    def components_inputs(self, positions: torch.Tensor, velocities: torch.Tensor) -> torch.Tensor:
+        """The n + 2 inputs of one batched call for ĝ, B̂ and n̂ (eq. 5.7–5.9):
+        [q, 0, 0], [q, 0, 1_j] for j = 1..n, [q, q̇, 0] — ``[n + 2, 3n]``."""
+        n = self.num_joints
+        rows = torch.zeros(n + 2, 3 * n, dtype=positions.dtype)
+        rows[:, :n] = positions
+        rows[1 : n + 1, 2 * n :] = torch.eye(n, dtype=positions.dtype)
+        rows[n + 1, n : 2 * n] = velocities
+        return rows
+
+    def components(
+        self, positions: torch.Tensor, velocities: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(B̂(q) ``[n, n]``, n̂(q, q̇) ``[n]``, ĝ(q) ``[n]``) from one GP call:
+        ĝ = f̂(q, 0, 0), B̂_ij = f̂_i(q, 0, 1_j) − ĝ_i, n̂ = f̂(q, q̇, 0)."""
+        values = self.torques(self.components_inputs(positions, velocities))
+        gravity = values[0]
+        inertia = (values[1:-1] - gravity).T  # row i: joint torque i, column j: 1_j
+        return inertia, values[-1], gravity
+
+    # ------------------------------------------------------------------ persistence
+    def state_dict(self) -> dict[str, torch.Tensor]:
+        """Tensors only: GP hyper-parameters and data, α, scales."""
+        if self._alpha is None:
+            raise RuntimeError("GPInverseDynamics.state_dict before fit")
+        return {
+            **{f"gp.{k}": v for k, v in self.gp.state_dict().items()},
+            "alpha": self._alpha,
+            "input_scale": self.input_scale,
+            "target_scale": self.target_scale,
+        }
+
+    def load_state_dict(self, state: dict[str, torch.Tensor]) -> None:
+        gp_state = {k.removeprefix("gp."): v for k, v in state.items() if k.startswith("gp.")}
+        self.gp.set_data(gp_state["train_inputs"], gp_state["train_targets"])
+        self.gp.load_state_dict(gp_state)
+        self._alpha = state["alpha"]
+        self.input_scale, self.target_scale = state["input_scale"], state["target_scale"]
+        self._prepared = self.gp.kernel.prepare(self.gp.train_inputs)
+
+
+def nmse_percent(predicted: np.ndarray, measured: np.ndarray) -> np.ndarray:
+    """Normalised mean squared error per joint, % (MSE / variance of the measured torque)."""
+    return 100 * ((predicted - measured) ** 2).mean(0) / measured.var(0)
