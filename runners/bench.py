@@ -6,7 +6,9 @@ the median wall time over ``--steps`` steps after warm-up for n = 60 and n = 300
 points in float64 and float32, the rollout's achieved GFLOP/s (flops counted analytically
 from the dominant products, see :func:`rollout_flops`), the machine's own float64 matmul
 GFLOP/s measured in the same run, the GP fit time at n = 300 against the reference
-recipe (1500 full-batch Adam steps at learning rate 0.01), and the wall time of a whole
+recipe (1500 full-batch Adam steps at learning rate 0.01), the per-call latency of the
+torque controllers of ``runners.control`` at n = 5000 (:mod:`runners.bench_control`), and
+the wall time of a whole
 ``protocol=quick`` cart-pole run per phase (``--skip-run`` leaves it out: it takes minutes).
 """
 
@@ -27,6 +29,7 @@ from mcpilco.build import build
 from mcpilco.errors import NotPositiveDefiniteError
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
+from runners.bench_control import control_latencies
 from runners.bench_run import logging_overhead, whole_run
 from runners.process import keep_freed_memory
 
@@ -211,6 +214,9 @@ def main() -> None:
         "--skip-run", action="store_true", help="skip the whole quick-protocol run (minutes)"
     )
     parser.add_argument("--skip-ur5", action="store_true", help="skip the UR5 step and fit")
+    parser.add_argument(
+        "--skip-control", action="store_true", help="skip the torque-controller latencies"
+    )
     args = parser.parse_args()
     keep_freed_memory()
     if args.threads:
@@ -257,6 +263,10 @@ def main() -> None:
             )
         if not args.skip_fit:
             print_fit("UR5 GP fit n=400", fit_comparison(400, UR5))
+    if not args.skip_control:
+        print("torque controllers, per 1 kHz call (target p99 < 1 ms):")  # noqa: T201
+        for name, (median, p99) in control_latencies().items():
+            print(f"  {name}: median {median * 1e3:.3f} ms, p99 {p99 * 1e3:.3f} ms")  # noqa: T201
     if not args.skip_run:
         phases = whole_run(args.threads)
         print(  # noqa: T201
