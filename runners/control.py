@@ -10,7 +10,6 @@ tracking run per reference seed (``summary.csv``, ``tracking/seed_KK.npz``, ``ro
 from __future__ import annotations
 
 import logging
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +17,6 @@ import hydra
 import numpy as np
 import torch
 from hydra.core.hydra_config import HydraConfig
-from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
 from mcpilco.build import make
@@ -31,13 +29,13 @@ from mcpilco.control import (
     track,
 )
 from mcpilco.control.model_store import load_or_fit
-from mcpilco.errors import ConfigError, RunInUseError
+from mcpilco.errors import ConfigError
 from mcpilco.run_storage import RunDirectory
 from mcpilco.safe_config import check_targets
 from mcpilco.tracking import McapLogger
 from mcpilco.tracking.metadata import run_metadata
 from mcpilco.trajectory import Trajectory
-from runners.failures import EXPECTED_ERRORS, record_failure
+from runners.failures import run_reporting_failures
 
 CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.control")
@@ -170,23 +168,8 @@ def run_reference(
 @hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="control")
 def main(cfg: DictConfig) -> None:
     """Hydra entry point; failures as in ``runners.train`` (one line, ``failed.txt``)."""
-    hydra_config = HydraConfig.get()
-    single = hydra_config.mode != RunMode.MULTIRUN
-    try:
-        control(cfg)
-    except RunInUseError as error:
-        log.error("%s", error)
-        if single:
-            sys.exit(2)
-        raise
-    except (Exception, KeyboardInterrupt) as error:
-        record_failure(Path(hydra_config.runtime.output_dir), error)
-        if isinstance(error, EXPECTED_ERRORS):
-            kind = "configuration error" if isinstance(error, ConfigError) else "run stopped"
-            log.error("%s: %s", kind, error)
-            if single:
-                sys.exit(2 if isinstance(error, ConfigError) else 1)
-        raise
+    run_dir = Path(HydraConfig.get().runtime.output_dir)
+    run_reporting_failures(lambda: control(cfg), run_dir, resume_hint=False)
 
 
 if __name__ == "__main__":

@@ -3,17 +3,15 @@
 from __future__ import annotations
 
 import logging
-import sys
 from pathlib import Path
 
 import hydra
 from hydra.core.hydra_config import HydraConfig
-from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
 from mcpilco.build import build, make
-from mcpilco.errors import ConfigError, RunInUseError
+from mcpilco.errors import ConfigError
 from mcpilco.optim.policy_optimizer import StepInfo
 from mcpilco.run_storage import RunDirectory
 from mcpilco.safe_config import load_run_config
@@ -21,7 +19,7 @@ from mcpilco.systems.base import MechanicalSystem
 from mcpilco.tracking.base import TrialObserver
 from mcpilco.tracking.metadata import run_metadata
 from mcpilco.trial_loop import TrialLoop
-from runners.failures import EXPECTED_ERRORS, record_failure
+from runners.failures import run_reporting_failures
 from runners.process import keep_freed_memory
 
 CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
@@ -157,25 +155,8 @@ def main(cfg: DictConfig) -> None:
     the error is re-raised so Hydra records the job as failed and runs the others."""
     keep_freed_memory()
     hydra_config = HydraConfig.get()
-    single = hydra_config.mode != RunMode.MULTIRUN
-    try:
-        train(cfg)
-    except RunInUseError as error:  # the directory is another process's: leave it alone
-        log.error("%s", error)
-        if single:
-            sys.exit(2)
-        raise
-    except (Exception, KeyboardInterrupt) as error:
-        run_dir = Path(cfg.resume) if cfg.get("resume") else Path(hydra_config.runtime.output_dir)
-        record_failure(run_dir, error)
-        if isinstance(error, KeyboardInterrupt):
-            log.error("interrupted; the finished trials are kept: resume=%s", run_dir)
-        elif isinstance(error, EXPECTED_ERRORS):
-            kind = "configuration error" if isinstance(error, ConfigError) else "run stopped"
-            log.error("%s: %s", kind, error)
-            if single:
-                sys.exit(2 if isinstance(error, ConfigError) else 1)
-        raise
+    run_dir = Path(cfg.resume) if cfg.get("resume") else Path(hydra_config.runtime.output_dir)
+    run_reporting_failures(lambda: train(cfg), run_dir, resume_hint=True)
 
 
 if __name__ == "__main__":

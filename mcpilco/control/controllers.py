@@ -10,7 +10,7 @@ import torch
 
 from mcpilco.control.inverse_dynamics import GPInverseDynamics
 from mcpilco.control.robot import TorqueControlledRobot
-from mcpilco.errors import ConfigError
+from mcpilco.systems.checks import positive
 
 
 class TrackingController(ABC):
@@ -27,7 +27,8 @@ class TrackingController(ABC):
     """Whether :meth:`bind` needs a fitted :class:`GPInverseDynamics`."""
 
     def __init__(self, omega: float = 100.0, zeta: float = 2.0) -> None:
-        self.omega, self.zeta = _gain("omega", omega), _gain("zeta", zeta)
+        self.omega = positive("omega", omega, "controller")
+        self.zeta = positive("zeta", zeta, "controller")
         self.kp, self.kd = self.omega**2, 2 * self.zeta * self.omega
 
     def bind(self, robot: TorqueControlledRobot, model: GPInverseDynamics | None) -> None:
@@ -59,17 +60,6 @@ class TrackingController(ABC):
         return self.torque(
             positions, velocities, self.acceleration(positions, velocities, reference)
         )
-
-
-def _gain(name: str, value: float) -> float:
-    """A positive finite gain; one-line error naming ``controller.<name>`` otherwise."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ConfigError(f"controller.{name} must be a positive number, got {value!r}") from None
-    if not np.isfinite(number) or number <= 0:
-        raise ConfigError(f"controller.{name} must be positive, got {value!r}")
-    return number
 
 
 class TrueModelFL(TrackingController):

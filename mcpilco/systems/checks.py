@@ -9,15 +9,15 @@ import numpy as np
 from mcpilco.errors import ConfigError, NonFiniteError
 
 
-def positive(name: str, value: float) -> float:
-    """``value`` as a float; a one-line :class:`ConfigError` naming ``system.<name>`` unless
-    it is finite and > 0 (masses, lengths, inertias, time steps)."""
+def positive(name: str, value: float, group: str = "system") -> float:
+    """``value`` as a float; a one-line :class:`ConfigError` naming ``<group>.<name>``
+    unless it is finite and > 0 (masses, lengths, inertias, time steps, gains)."""
     try:
         number = float(value)
     except (TypeError, ValueError):
-        raise ConfigError(f"system.{name} must be a positive number, got {value!r}") from None
+        raise ConfigError(f"{group}.{name} must be a positive number, got {value!r}") from None
     if not np.isfinite(number) or number <= 0:
-        raise ConfigError(f"system.{name} must be positive, got {value!r}")
+        raise ConfigError(f"{group}.{name} must be positive, got {value!r}")
     return number
 
 
