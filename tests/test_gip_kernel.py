@@ -30,6 +30,9 @@ def test_gip_is_a_symmetric_psd_covariance_with_its_diagonal() -> None:
     cross, variance = kernel.prepare(y)(x)
     torch.testing.assert_close(cross, kernel(x, y))
     torch.testing.assert_close(variance, kernel.diag(x))
+    shared = x.clone()
+    shared[:, [0, 1, 2]] = x[0, [0, 1, 2]]  # one configuration q, many (q̇, q̈): eq. 5.7-5.9
+    torch.testing.assert_close(kernel.prepare(y)(shared)[0], kernel(shared, y))
 
 
 def test_gip_matches_its_formula_at_one_pair() -> None:
