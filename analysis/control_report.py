@@ -5,9 +5,10 @@
 Writes ``nmse.md`` (test nMSE % per joint of each model directory beside the thesis's),
 ``test_errors.png/.svg`` (box plots of the absolute test errors per joint, Fig. 5.3),
 ``tracking.md`` (per run: kernel, controller, initial error, successes over the reference
-seeds, worst steady-state error per joint in degrees, controller latency) and, per run and
-seed, ``tracking_<run>_seed<K>.png/.svg`` (joint angles against the reference, torques and
-tracking errors, Figs. 5.4–5.6). Nothing is instantiated: configs are read as data.
+seeds, worst steady-state error per joint in degrees, controller latency) and, with
+``--figure-seed K``, per run ``tracking_<run>_seed_KK.png/.svg`` (joint angles against the
+reference, torques and tracking errors, Figs. 5.4–5.6). Nothing is instantiated: configs
+are read as data.
 """
 
 from __future__ import annotations
@@ -155,7 +156,9 @@ def main() -> None:
     parser.add_argument("models", nargs="*", type=Path, help="model directories")
     parser.add_argument("--runs", nargs="*", type=Path, default=[], help="runs or sweeps")
     parser.add_argument("--out", type=Path, default=Path("control_report"))
-    parser.add_argument("--figures", action="store_true", help="tracking figures per seed")
+    parser.add_argument(
+        "--figure-seed", type=int, default=None, help="tracking figures of this seed's runs"
+    )
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     if args.models:
@@ -170,9 +173,10 @@ def main() -> None:
         table.to_csv(args.out / "tracking.csv", index=False)
         (args.out / "tracking.md").write_text(tracking_markdown(table))
         print((args.out / "tracking.md").read_text())  # noqa: T201
-        if args.figures:
+        if args.figure_seed is not None:
             for run in runs:
-                for seed_file in sorted((run / "tracking").glob("seed_*.npz")):
+                seed_file = run / "tracking" / f"seed_{args.figure_seed:02d}.npz"
+                if seed_file.is_file():
                     tracking_figure(run, seed_file, args.out)
 
 
