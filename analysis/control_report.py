@@ -6,7 +6,7 @@ Writes ``nmse.md`` (test nMSE % per joint of each model directory beside the the
 ``test_errors.png/.svg`` (box plots of the absolute test errors per joint, Fig. 5.3),
 ``tracking.md`` (per run: kernel, controller, initial error, successes over the reference
 seeds, worst steady-state error per joint in degrees, controller latency) and, with
-``--figure-seed K``, per run ``tracking_<run>_seed_KK.png/.svg`` (joint angles against the
+``--figure-seed K``, per run ``tracking_<parent>_<run>_seed_KK.png/.svg`` (joint angles against the
 reference, torques and tracking errors, Figs. 5.4–5.6). Nothing is instantiated: configs
 are read as data.
 """
@@ -99,6 +99,7 @@ def tracking_table(runs: list[Path]) -> pd.DataFrame:
                 "run": run.name,
                 "kernel": kernel_label(OmegaConf.to_container(config.kernel)),
                 "controller": str(config.controller._target_).rsplit(".", 1)[-1],
+                "model": Path(str(config.model_dir)).name,
                 "initial_error_rad": float(config.reference.initial_error),
                 "seeds": len(summary),
                 "successes": int(summary["success"].sum()),
@@ -112,13 +113,13 @@ def tracking_table(runs: list[Path]) -> pd.DataFrame:
 
 def tracking_markdown(table: pd.DataFrame) -> str:
     lines = [
-        "| controller | kernel | initial error [rad] | success / seeds | diverged | worst "
-        "steady-state error per joint [deg] | p99 latency [ms] |",
+        "| controller | model | initial error [rad] | success / seeds | diverged | worst "
+        "steady-state error per joint [deg] | p99 latency in the run [ms] |",
         "|---|---|---|---|---|---|---|",
     ]
-    for row in table.sort_values(["initial_error_rad", "controller", "kernel"]).itertuples():
+    for row in table.sort_values(["initial_error_rad", "controller", "model"]).itertuples():
         worst = " ".join(f"{v:.2f}" for v in row.worst_steady_state_deg)
-        kernel = "—" if row.controller == "TrueModelFL" else row.kernel
+        kernel = "—" if row.controller == "TrueModelFL" else f"{row.kernel} (`{row.model}`)"
         lines.append(
             f"| {row.controller} | {kernel} | {row.initial_error_rad:g} | "
             f"{row.successes}/{row.seeds} | {row.diverged} | {worst} | {row.latency_p99_ms:.3f} |"
@@ -144,10 +145,12 @@ def tracking_figure(run: Path, seed_file: Path, out: Path) -> None:
     axes[1, 0].set_ylabel("torque [N m]")
     axes[2, 0].set_ylabel("error [deg]")
     axes[0, 0].legend(fontsize=7)
-    figure.suptitle(f"{run.name}, {seed_file.stem}", fontsize=9)
+    figure.suptitle(f"{run.parent.name}/{run.name}, {seed_file.stem}", fontsize=9)
     figure.tight_layout()
     for suffix in (".png", ".svg"):
-        figure.savefig(out / f"tracking_{run.name}_{seed_file.stem}{suffix}", dpi=100)
+        figure.savefig(
+            out / f"tracking_{run.parent.name}_{run.name}_{seed_file.stem}{suffix}", dpi=100
+        )
     plt.close(figure)
 
 
