@@ -58,16 +58,20 @@ def check_reference(reference: DictConfig) -> None:
         raise ConfigError(f"reference.settle={reference.settle} must be in [0, duration)")
 
 
+def rerun_mode(cfg: DictConfig) -> str:
+    """``tracking.rerun``: off or save (one-line error otherwise)."""
+    mode = "off" if cfg.tracking.rerun in (None, False) else str(cfg.tracking.rerun)
+    if mode not in ("off", "save"):
+        raise ConfigError(f"tracking.rerun={mode!r} must be off or save")
+    return mode
+
+
 def tracking_observers(cfg: DictConfig, run_dir: Path) -> list[Any]:
     """The MCAP logger and, with ``tracking.rerun=save``, the Rerun recording."""
     observers: list[Any] = []
     if cfg.tracking.mcap:
         observers.append(McapLogger(run_dir))
-    mode = str(cfg.tracking.rerun)
-    if mode not in ("off", "save", "False"):
-        if mode != "save":
-            raise ConfigError(f"tracking.rerun={mode!r} must be off or save")
-    if mode == "save":
+    if rerun_mode(cfg) == "save":
         from mcpilco.tracking import RerunStreamer
 
         observers.append(RerunStreamer(run_dir, mode="save"))
@@ -101,6 +105,7 @@ def control(cfg: DictConfig) -> None:
     robot: TorqueControlledRobot = make(cfg.robot)
     controller: TrackingController = make(cfg.controller)
     check_reference(cfg.reference)
+    rerun_mode(cfg)
     run_dir = Path(HydraConfig.get().runtime.output_dir)
     storage = RunDirectory(run_dir)
     with storage.locked():

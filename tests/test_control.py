@@ -235,6 +235,7 @@ def test_runner_fits_once_and_reuses_the_model(tmp_path: Path) -> None:
         (["robot.dt=-0.001"], "system.dt must be positive"),
         (["fit_model=false"], "holds no fitted model and fit_model=false"),
         (["reference.seeds=[]"], "reference.seeds"),
+        (["tracking.rerun=connect"], "tracking.rerun='connect' must be off or save"),
     ],
 )
 def test_bad_input_stops_before_any_simulation(
