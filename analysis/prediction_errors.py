@@ -11,22 +11,26 @@ held-out one. Works for every model structure: the errors are those of its GP ou
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import torch
-from omegaconf import OmegaConf
 
 from mcpilco.build import build
+from mcpilco.errors import CheckpointError, ConfigError
 from mcpilco.run_storage import RunDirectory
+from mcpilco.safe_config import load_run_config
+
+log = logging.getLogger(__name__)
 
 
 def run_prediction_errors(run: Path, trial: int) -> pd.DataFrame:
     """Rows (output, error) of |GP mean − target| over trial ``trial``'s rollout."""
     storage = RunDirectory(run)
-    experiment = build(OmegaConf.load(run / "config.yaml"))  # type: ignore[arg-type]
+    experiment = build(load_run_config(run))  # checked first (mcpilco.safe_config)
     c = experiment.components
     c.model.load_gp(storage.load_checkpoint(trial, "model"))
     trajectory = storage.load_trajectory(trial)
@@ -53,7 +57,11 @@ def prediction_errors(trials: pd.DataFrame) -> pd.DataFrame:
         last = int(group["trial"].max())
         if last < 1:
             continue
-        frame = run_prediction_errors(Path(str(run)), last)
+        try:
+            frame = run_prediction_errors(Path(str(run)), last)
+        except (ConfigError, CheckpointError) as error:  # a refused or broken run: skip it
+            log.warning("no prediction errors for %s: %s", run, error)
+            continue
         frame["configuration"] = group["configuration"].iloc[0]
         frame["trial"] = last
         frames.append(frame)

@@ -264,3 +264,23 @@ def test_ctrl_c_writes_failed_txt_and_keeps_finished_trials(tmp_path: Path) -> N
     assert "KeyboardInterrupt" in (tmp_path / "failed.txt").read_text()
     finished = pd.read_csv(summary)["trial"].tolist()
     assert finished[:2] == [0, 1] and finished == list(range(len(finished)))
+
+
+def test_a_sweep_report_skips_a_refused_run_and_reports_the_others(tmp_path: Path) -> None:
+    """analysis.report builds each run's model for the prediction errors: a hostile run is
+    skipped with a warning, the other runs are reported, nothing it names runs."""
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious")
+    for name in ("good", "hostile"):
+        result = run_module(
+            "runners.train", *TINY, "num_trials=1", f"hydra.run.dir={tmp_path / name}"
+        )
+        assert result.returncode == 0, result.stderr[-2000:]
+    config = OmegaConf.load(tmp_path / "hostile" / "config.yaml")
+    config.system = {"_target_": "builtins.open", "file": str(victim), "mode": "w"}
+    OmegaConf.save(config, tmp_path / "hostile" / "config.yaml")
+    report = run_module("analysis.report", str(tmp_path), "--out", str(tmp_path / "report"))
+    assert report.returncode == 0, report.stderr[-2000:]
+    assert victim.read_text() == "precious"
+    assert "no prediction errors for" in report.stderr and "builtins.open" in report.stderr
+    assert (tmp_path / "report" / "prediction_errors.csv").is_file()
