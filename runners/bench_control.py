@@ -11,7 +11,6 @@ import time
 from functools import partial
 
 import numpy as np
-import torch
 
 from mcpilco.control import (
     GPFL,
@@ -59,9 +58,7 @@ def control_latencies(points: int = 5000, calls: int = 2000) -> dict[str, tuple[
     results["true_fl"] = call_latency(true_fl, robot, calls)
     for name, kernel in (("se", SquaredExponential), ("gip", GeometricPolynomial)):
         model = GPInverseDynamics(partial(kernel), robot.num_joints, fit_points=None)
-        inputs = torch.as_tensor(data.inputs)
-        model.input_scale[robot.num_joints :] = inputs[:, robot.num_joints :].std(0)
-        model._set_posterior(inputs / model.input_scale, torch.as_tensor(data.torques))
+        model.condition(data)
         for label, controller in (("gp_fl", GPFL()), ("gp_fl_dce", GPFLDCE())):
             controller.bind(robot, model)
             results[f"{label} ({name.upper()}, n={len(data.positions)})"] = call_latency(

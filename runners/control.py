@@ -90,10 +90,7 @@ def log_run(observers: list[Any], index: int, run: TrackingRun, row: dict[str, A
     costs = np.linalg.norm(run.errors, axis=1)
     worst = np.degrees(np.abs(run.errors).max(axis=1))
     for observer in observers:
-        if isinstance(observer, McapLogger):
-            observer.rollout(index, trajectory, costs, worst, kind="tracking")
-        else:
-            observer.rollout(index, trajectory, costs, worst)
+        observer.rollout(index, trajectory, costs, worst, kind="tracking")
         observer.trial_finished(index, row)
 
 

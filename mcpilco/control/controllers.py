@@ -30,6 +30,8 @@ class TrackingController(ABC):
         self.omega = positive("omega", omega, "controller")
         self.zeta = positive("zeta", zeta, "controller")
         self.kp, self.kd = self.omega**2, 2 * self.zeta * self.omega
+        self.robot: TorqueControlledRobot | None = None
+        self.model: GPInverseDynamics | None = None
 
     def bind(self, robot: TorqueControlledRobot, model: GPInverseDynamics | None) -> None:
         """Give the controller the robot (for its true model) and the GP model."""

@@ -77,15 +77,23 @@ class GPInverseDynamics:
     def _scaled(self, inputs: torch.Tensor) -> torch.Tensor:
         return inputs / self.input_scale
 
-    def fit(self, data: InverseDynamicsData, generator: torch.Generator) -> InverseDynamicsFit:
-        """ML-II on a random subset, then the posterior on all of ``data``."""
+    def _standardised(self, data: InverseDynamicsData) -> tuple[torch.Tensor, torch.Tensor]:
+        """Set the input and target scales from ``data``; its scaled inputs and targets."""
         inputs = torch.as_tensor(data.inputs, dtype=torch.float64)
         targets = torch.as_tensor(data.torques, dtype=torch.float64)
         n = self.num_joints
         scale = torch.ones(3 * n, dtype=torch.float64)
         scale[n:] = inputs[:, n:].std(0).clamp_min(1e-9)
         self.input_scale, self.target_scale = scale, targets.std(0).clamp_min(1e-9)
-        x, y = self._scaled(inputs), targets / self.target_scale
+        return self._scaled(inputs), targets / self.target_scale
+
+    def condition(self, data: InverseDynamicsData) -> None:
+        """The posterior on ``data`` with the hyper-parameters as they are (no ML-II)."""
+        self._set_posterior(*self._standardised(data))
+
+    def fit(self, data: InverseDynamicsData, generator: torch.Generator) -> InverseDynamicsFit:
+        """ML-II on a random subset, then the posterior on all of ``data``."""
+        x, y = self._standardised(data)
         count = x.shape[0] if self.fit_points is None else min(self.fit_points, x.shape[0])
         subset = torch.randperm(x.shape[0], generator=generator)[:count]
         start = time.perf_counter()

@@ -14,6 +14,7 @@ prismatic one. The constant σ² of k_P¹ carries the gravity term g(q).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import torch
@@ -47,6 +48,10 @@ class GeometricPolynomial(Kernel):
         weight: float = 1.0,
     ) -> None:
         super().__init__(shape)
+        if offset <= 0 or weight <= 0:
+            raise ConfigError(
+                f"kernel GeometricPolynomial offset and weight must be > 0, got {offset}, {weight}"
+            )
         if positions is None and velocities is None and accelerations is None:
             if shape.input_dim % 3:
                 raise ConfigError(
@@ -85,15 +90,11 @@ class GeometricPolynomial(Kernel):
         )
         g = shape.num_outputs
         self.log_joint_offset = nn.Parameter(
-            torch.full((g, n, 2), float(torch.log(torch.tensor(offset))), dtype=torch.float64)
+            torch.full((g, n, 2), math.log(offset), dtype=torch.float64)
         )  # [G, n joints, 2 factors]
         self.log_joint_weight = nn.Parameter(
-            torch.full((g, n, 2, 2), float(torch.log(torch.tensor(weight))), dtype=torch.float64)
+            torch.full((g, n, 2, 2), math.log(weight), dtype=torch.float64)
         )  # [G, n joints, 2 factors, 2 features]
-        if offset <= 0 or weight <= 0:
-            raise ConfigError(
-                f"kernel GeometricPolynomial offset and weight must be > 0, got {offset}, {weight}"
-            )
 
     def joint_features(self, x: torch.Tensor) -> torch.Tensor:
         """q̃ ``[N, n, 2]``: (cos q_j, sin q_j) for revolute joints, (q_j, 0) for prismatic."""

@@ -34,9 +34,15 @@ class TrialObserver:
         ``[T+1, M]`` (training cost)."""
 
     def rollout(
-        self, trial: int, trajectory: Trajectory, costs: np.ndarray, eval_costs: np.ndarray
+        self,
+        trial: int,
+        trajectory: Trajectory,
+        costs: np.ndarray,
+        eval_costs: np.ndarray,
+        kind: str | None = None,
     ) -> None:
-        """A system rollout with its training cost and evaluation cost per state ``[T+1]``."""
+        """A system rollout with its training cost and evaluation cost per state ``[T+1]``;
+        ``kind`` labels it (None: ``exploration`` for trial 0, ``policy`` after)."""
 
     def trial_finished(self, trial: int, summary: Mapping[str, Any]) -> None:
         """The trial's summary row; everything of the trial must be durable after this."""

@@ -163,8 +163,6 @@ class McapLogger(TrialObserver):
         eval_costs: np.ndarray,
         kind: str | None = None,
     ) -> None:
-        """Every sample of a rollout; ``kind`` labels it (default: ``exploration`` for trial
-        0, ``policy`` after)."""
         if kind is None:
             kind = "exploration" if trial == 0 else "policy"
         for step, time_s in enumerate(trajectory.times):

@@ -93,7 +93,12 @@ class RerunStreamer(TrialObserver):
         self._scalars(f"trial_{trial}/particle_cost", times, costs.mean(1))
 
     def rollout(
-        self, trial: int, trajectory: Trajectory, costs: np.ndarray, eval_costs: np.ndarray
+        self,
+        trial: int,
+        trajectory: Trajectory,
+        costs: np.ndarray,
+        eval_costs: np.ndarray,
+        kind: str | None = None,
     ) -> None:
         times = trajectory.times
         for i in range(trajectory.states.shape[1]):
