@@ -39,6 +39,7 @@ _DOTTED = re.compile(r"[A-Za-z][A-Za-z0-9_]*(\.[A-Za-z][A-Za-z0-9_]*)+")
 
 def extension_points() -> tuple[type, ...]:
     """The base classes a ``_target_`` may derive from (one per concept)."""
+    from mcpilco.cloth.simulation import ClothParameters
     from mcpilco.control.controllers import TrackingController
     from mcpilco.control.robot import TorqueControlledRobot
     from mcpilco.costs.base import Cost
@@ -46,6 +47,7 @@ def extension_points() -> tuple[type, ...]:
     from mcpilco.gp.exact import ExactGP
     from mcpilco.gp.fit import MarginalLikelihoodFit
     from mcpilco.kernels.base import Kernel
+    from mcpilco.latent.cgpdm import CGPDM
     from mcpilco.models.base import ModelStructure
     from mcpilco.optim.policy_optimizer import PolicyOptimizer
     from mcpilco.policies.exploration import ExplorationController
@@ -67,6 +69,8 @@ def extension_points() -> tuple[type, ...]:
         TrialObserver,
         TorqueControlledRobot,
         TrackingController,
+        ClothParameters,
+        CGPDM,
     )
 
 

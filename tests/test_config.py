@@ -19,9 +19,12 @@ from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
 
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "conf"
-CONTROL_ONLY = {"robot": None, "controller": None, "kernel": {"gip"}}
-"""Groups (None: all of it) and options of runners.control (tests/test_control.py), not of
-runners.train: the GIP kernel's default input layout is the inverse dynamics' [q, q̇, q̈]."""
+CONTROL_ONLY = {
+    "robot": None, "controller": None, "kernel": {"gip"}, "cloth": None, "cgpdm": None,
+}  # fmt: skip
+"""Groups (None: all of it) and options of runners.control (tests/test_control.py) and
+runners.cgpdm (tests/test_cgpdm_runner.py), not of runners.train: the GIP kernel's default
+input layout is the inverse dynamics' [q, q̇, q̈]."""
 GROUPS = sorted(
     p.name
     for p in CONFIG_DIR.iterdir()
@@ -30,7 +33,9 @@ GROUPS = sorted(
     and (p.name not in CONTROL_ONLY or CONTROL_ONLY[p.name] is not None)
 )
 EXPERIMENTS = sorted(
-    p.stem for p in (CONFIG_DIR / "experiment").glob("*.yaml") if not p.stem.startswith("fl_")
+    p.stem
+    for p in (CONFIG_DIR / "experiment").glob("*.yaml")
+    if not p.stem.startswith(("fl_", "cgpdm_"))
 )
 
 

@@ -8,6 +8,7 @@ import torch
 from torch.autograd import gradcheck
 
 from mcpilco.kernels import (
+    Constant,
     KernelShape,
     Linear,
     MultiplicativePolynomial,
@@ -37,6 +38,9 @@ KERNELS = {
     "linear_capped": lambda: Linear(SHAPE, weight=[0.5, 2.0, 1.0], max_weight=5.0),
     "physical": lambda: PhysicalBasis(SHAPE, weight=[1.0, 0.5, 0.2]),
     "sp": lambda: Sum(SHAPE, [lambda s: PhysicalBasis(s), lambda s: SquaredExponential(s)]),
+    "se_isotropic": lambda: SquaredExponential(SHAPE, lengthscale=0.7, isotropic=True),
+    "linear_isotropic": lambda: Linear(SHAPE, weight=0.4, isotropic=True),
+    "linear_bias": lambda: Sum(SHAPE, [lambda s: Linear(s), lambda s: Constant(s, value=0.3)]),
     "se_p2": lambda: Sum(
         SHAPE, [lambda s: SquaredExponential(s), lambda s: MultiplicativePolynomial(s, degree=2)]
     ),
@@ -157,3 +161,25 @@ def test_capped_linear_weight_of_a_flat_column_stays_bounded_in_a_fit(
     assert weights[100.0][1] <= 100.0
     with pytest.raises(Exception, match="max_weight"):
         Linear(shape, weight=2.0, max_weight=1.0)
+
+
+def test_isotropic_kernels_equal_ard_ones_with_equal_parameters(inputs: torch.Tensor) -> None:
+    """Thesis eq. 6.6/6.9: one length-scale (weight) for all inputs."""
+    iso = SquaredExponential(SHAPE, lengthscale=0.7, variance=1.5, isotropic=True)
+    ard = SquaredExponential(SHAPE, lengthscale=[0.7] * 3, variance=1.5)
+    assert iso.log_lengthscale.shape == (2, 1)
+    torch.testing.assert_close(iso(inputs, inputs[:5]), ard(inputs, inputs[:5]))
+    linear_iso = Linear(SHAPE, weight=0.4, isotropic=True)
+    expected = 0.4 * inputs @ inputs[:5].T
+    torch.testing.assert_close(linear_iso(inputs, inputs[:5])[1], expected)
+    torch.testing.assert_close(linear_iso.diag(inputs)[0], 0.4 * inputs.square().sum(-1))
+
+
+def test_linear_plus_constant_is_the_inhomogeneous_linear_kernel(inputs: torch.Tensor) -> None:
+    """Thesis eq. 6.10: [x, 1] diag(phi^2) [x', 1]^T."""
+    kernel = Sum(
+        SHAPE, [lambda s: Linear(s, weight=[0.5, 2.0, 1.0]), lambda s: Constant(s, value=0.3)]
+    )
+    augmented = torch.cat([inputs, torch.ones(len(inputs), 1, dtype=inputs.dtype)], 1)
+    phi = torch.diag(torch.tensor([0.5, 2.0, 1.0, 0.3], dtype=inputs.dtype))
+    torch.testing.assert_close(kernel(inputs, inputs)[0], augmented @ phi @ augmented.T)

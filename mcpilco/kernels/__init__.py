@@ -1,6 +1,7 @@
 """Covariance functions, batched over independent GP outputs (one file per kernel)."""
 
 from mcpilco.kernels.base import Kernel, KernelFactory, KernelShape
+from mcpilco.kernels.constant import Constant
 from mcpilco.kernels.gip import GeometricPolynomial
 from mcpilco.kernels.linear import Linear
 from mcpilco.kernels.physical import PhysicalBasis
@@ -9,6 +10,7 @@ from mcpilco.kernels.se import SquaredExponential
 from mcpilco.kernels.sum import Sum
 
 __all__ = [
+    "Constant",
     "GeometricPolynomial",
     "Kernel",
     "KernelFactory",

@@ -24,6 +24,7 @@ class Linear(Kernel):
         weight: initial diagonal of Σ.
         active_dims: input columns S (all when None).
         max_weight: ceiling on the entries of Σ (None: none); above every initial weight.
+        isotropic: Σ = σ² I, one weight for every column (thesis eq. 6.9's α₃ xᵀx').
     """
 
     def __init__(
@@ -32,10 +33,12 @@ class Linear(Kernel):
         weight: float | Sequence[float] = 1.0,
         active_dims: Sequence[int] | None = None,
         max_weight: float | None = None,
+        isotropic: bool = False,
     ) -> None:
         super().__init__(shape)
         self.active_dims = None if active_dims is None else tuple(active_dims)
         size = check_dims("Linear", self.active_dims, shape.input_dim)
+        size = 1 if isotropic else size
         self.log_weight = self._log_parameter("weight", weight, size)  # [G, D_S]
         self.max_weight = max_weight
         if max_weight is not None:
@@ -63,4 +66,4 @@ class Linear(Kernel):
 
     def diag(self, x: torch.Tensor) -> torch.Tensor:
         z = select_dims(x, self.active_dims)
-        return torch.matmul(self.weights(), z.square().transpose(-1, -2))
+        return (z.square()[None] * self.weights()[:, None, :]).sum(-1)

@@ -68,6 +68,8 @@ class SquaredExponential(Kernel):
         variance: initial λ².
         train_variance: whether λ² is a trained hyper-parameter.
         active_dims: input columns the kernel looks at (all when None).
+        isotropic: one length-scale shared by every input (the GPDM kernels of thesis
+            eq. 6.6 and 6.9) instead of one per input (ARD).
     """
 
     def __init__(
@@ -77,10 +79,12 @@ class SquaredExponential(Kernel):
         variance: float = 1.0,
         train_variance: bool = True,
         active_dims: Sequence[int] | None = None,
+        isotropic: bool = False,
     ) -> None:
         super().__init__(shape)
         self.active_dims = None if active_dims is None else tuple(active_dims)
         size = check_dims("SquaredExponential", self.active_dims, shape.input_dim)
+        size = 1 if isotropic else size
         self.log_lengthscale = self._log_parameter("lengthscale", lengthscale, size)
         log_variance = self._log_parameter("variance", variance, 1)[:, 0]
         self.log_variance = nn.Parameter(log_variance, requires_grad=train_variance)

@@ -1,0 +1,206 @@
+"""The CGPDM study's table and figures (thesis Fig. 6.3–6.5) from its run directories.
+
+    python -m analysis.cgpdm_report SWEEP_OR_RUN... [--out DIR] [--figure-run RUN]
+
+Writes ``errors.md`` and ``errors.csv`` (per range R, variant and number of training
+sequences: the mean over draws of each model's mean test error, eq. 6.13, with its 95 %
+confidence interval (Student t over the draws), the median, the two baselines, training and
+prediction times), ``errors.png/.svg`` (Fig. 6.5) and, for ``--figure-run``, ``latent.png``
+(the predicted latent trajectories of two test sequences, Fig. 6.3) and ``frames.png`` (true
+against predicted cloth at six instants, Fig. 6.4). Nothing is instantiated: runs are read
+as data; runs with ``failed.txt`` or an incomplete summary are listed and left out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+from scipy import stats  # noqa: E402
+
+from analysis.thesis import REAL_CLOTH_ERRORS  # noqa: E402
+
+log = logging.getLogger("mcpilco.cgpdm_report")
+MODEL_COLUMNS = ["range_deg", "variant", "num_train", "draw"]
+
+
+def load_models(paths: list[Path]) -> tuple[pd.DataFrame, list[Path]]:
+    """One row per trained model (its mean over the test sequences); and the run
+    directories left out (failed or incomplete)."""
+    rows, left_out = [], []
+    for root in paths:
+        for summary in sorted(root.rglob("summary.csv")):
+            run = summary.parent
+            table = pd.read_csv(summary)
+            if "error_m" not in table:
+                continue  # not a CGPDM run (e.g. mode=generate)
+            if (run / "failed.txt").exists():
+                left_out.append(run)
+                continue
+            row = table.groupby(MODEL_COLUMNS, as_index=False).agg(
+                error_m=("error_m", "mean"), still_error_m=("still_error_m", "mean"),
+                rigid_error_m=("rigid_error_m", "mean"), fit_seconds=("fit_seconds", "first"),
+                predict_seconds=("predict_seconds", "first"), test_sequences=("error_m", "size"),
+            )  # fmt: skip
+            row["run"] = str(run)
+            rows.append(row)
+        for failed in root.rglob("failed.txt"):
+            if failed.parent not in left_out and not (failed.parent / "summary.csv").exists():
+                left_out.append(failed.parent)
+    models = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=MODEL_COLUMNS)
+    return models, left_out
+
+
+def cells(models: pd.DataFrame) -> pd.DataFrame:
+    """Per (R, variant, n): mean, 95 % CI half-width and median over the draws."""
+
+    def half_width(values: pd.Series) -> float:
+        if len(values) < 2:
+            return float("nan")
+        return float(
+            stats.t.ppf(0.975, len(values) - 1) * values.std(ddof=1) / np.sqrt(len(values))
+        )
+
+    grouped = models.groupby(["range_deg", "variant", "num_train"])
+    table = grouped.agg(
+        draws=("error_m", "size"), error_mean=("error_m", "mean"),
+        error_median=("error_m", "median"), still=("still_error_m", "mean"),
+        rigid=("rigid_error_m", "mean"), fit_seconds=("fit_seconds", "mean"),
+        predict_ms=("predict_seconds", lambda s: 1000 * s.mean()),
+    ).reset_index()  # fmt: skip
+    table.insert(5, "error_ci95", grouped["error_m"].apply(half_width).to_numpy())
+    return table
+
+
+def markdown(table: pd.DataFrame) -> str:
+    lines = [
+        "| R (deg) | variant | sequences | draws | error (m), mean ± 95 % CI | median | "
+        "still (m) | rigid (m) | training (s) | prediction (ms/seq) |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for row in table.itertuples():
+        lines.append(
+            f"| {row.range_deg:g} | {row.variant} | {row.num_train} | {row.draws} | "
+            f"{row.error_mean:.4f} ± {row.error_ci95:.4f} | {row.error_median:.4f} | "
+            f"{row.still:.4f} | {row.rigid:.4f} | {row.fit_seconds:.1f} | {row.predict_ms:.1f} |"
+        )
+    lines.append("")
+    lines.append(
+        "Thesis, real cloth (§6.5, highly-parameterised, 10 sequences): "
+        + ", ".join(f"R = {r}: {m} ± {s} m" for r, (m, s) in REAL_CLOTH_ERRORS.items())
+    )
+    return "\n".join(lines) + "\n"
+
+
+def plot_errors(table: pd.DataFrame, out: Path) -> None:
+    """Fig. 6.5: error against the number of training sequences, one panel per R."""
+    ranges = sorted(table.range_deg.unique())
+    figure, axes = plt.subplots(
+        1, len(ranges), figsize=(3.2 * len(ranges), 3.2), sharey=True, squeeze=False
+    )
+    for axis, range_deg in zip(axes[0], ranges, strict=True):
+        part = table[table.range_deg == range_deg]
+        for offset, (variant, rows) in zip((-0.4, 0.4), part.groupby("variant"), strict=False):
+            axis.errorbar(
+                rows.num_train + offset,
+                rows.error_mean,
+                yerr=rows.error_ci95,
+                fmt="o",
+                capsize=3,
+                label=f"{variant}",
+            )
+        axis.plot(
+            part.num_train.unique(),
+            part.groupby("num_train").still.mean(),
+            "k:",
+            label="still cloth",
+        )
+        axis.plot(
+            part.num_train.unique(),
+            part.groupby("num_train").rigid.mean(),
+            "k--",
+            label="rigid with grip",
+        )
+        axis.set_title(f"R = {range_deg:g}°")
+        axis.set_xlabel("training sequences")
+        axis.set_yscale("log")
+        axis.grid(alpha=0.3)
+    axes[0][0].set_ylabel("mean point distance (m)")
+    axes[0][-1].legend(fontsize=7)
+    figure.tight_layout()
+    for suffix in ("png", "svg"):
+        figure.savefig(out / f"errors.{suffix}", dpi=130)
+    plt.close(figure)
+
+
+def plot_run(run: Path, out: Path, sequences: tuple[int, int] = (0, 1)) -> None:
+    """Figs. 6.3 and 6.4 from one run's ``predictions.npz``."""
+    with np.load(run / "predictions.npz") as arrays:
+        latent, predicted, true = arrays["latent"], arrays["predicted"], arrays["true"]
+        training = arrays["training_latent"]
+    figure = plt.figure(figsize=(5, 4.5))
+    axis = figure.add_subplot(projection="3d")
+    for path in training:
+        axis.plot(*path.T, color="0.8", lw=0.6)
+    for k, color in zip(sequences, ("tab:blue", "tab:red"), strict=True):
+        axis.plot(*latent[k].T, color=color, lw=1.8, label=f"test sequence {k}")
+    axis.scatter(*latent[sequences[0], 0], color="k", s=20, label="initial state")
+    axis.set_xlabel("$x_1$"), axis.set_ylabel("$x_2$"), axis.set_zlabel("$x_3$")
+    axis.legend(fontsize=7)
+    figure.tight_layout()
+    figure.savefig(out / "latent.png", dpi=130)
+    plt.close(figure)
+    times = np.linspace(0, len(true[0]) - 1, 6).astype(int)
+    figure = plt.figure(figsize=(13, 4.6))
+    for column, t in enumerate(times):
+        for row, (frames, name) in enumerate(((true, "simulated"), (predicted, "CGPDM"))):
+            axis = figure.add_subplot(2, len(times), row * len(times) + column + 1, projection="3d")
+            points = frames[sequences[0], t].reshape(8, 8, 3)
+            axis.plot_wireframe(
+                points[..., 0],
+                points[..., 1],
+                points[..., 2],
+                color="tab:blue" if row == 0 else "tab:red",
+                lw=0.8,
+            )
+            axis.set_xlim(-0.2, 0.2), axis.set_ylim(-0.2, 0.2), axis.set_zlim(0.65, 1.05)
+            axis.view_init(elev=10, azim=-60)
+            axis.set_xticklabels([]), axis.set_yticklabels([]), axis.set_zticklabels([])
+            axis.set_title(f"{name}, t = {0.05 * t:.2f} s", fontsize=8)
+    figure.tight_layout()
+    figure.savefig(out / "frames.png", dpi=110)
+    plt.close(figure)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("runs", nargs="+", type=Path, help="sweep or run directories")
+    parser.add_argument("--out", type=Path, default=Path("cgpdm_report"))
+    parser.add_argument("--figure-run", type=Path, help="a run for the latent and frame figures")
+    args = parser.parse_args()
+    logging.basicConfig(level=logging.INFO, format="%(message)s")
+    args.out.mkdir(parents=True, exist_ok=True)
+    models, left_out = load_models(args.runs)
+    for run in left_out:
+        log.warning("left out (failed or incomplete): %s", run)
+    if models.empty:
+        raise SystemExit("no finished CGPDM runs under " + " ".join(map(str, args.runs)))
+    models.to_csv(args.out / "models.csv", index=False)
+    table = cells(models)
+    table.to_csv(args.out / "errors.csv", index=False)
+    (args.out / "errors.md").write_text(markdown(table))
+    plot_errors(table, args.out)
+    if args.figure_run is not None:
+        plot_run(args.figure_run, args.out)
+    log.info("%s", markdown(table))
+
+
+if __name__ == "__main__":
+    main()

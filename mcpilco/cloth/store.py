@@ -1,0 +1,117 @@
+"""Generated data sets on disk: one file per (cloth, excitation, R, seed), made once."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mcpilco.cloth.dataset import ClothDataset, Excitation, generate
+from mcpilco.cloth.simulation import ClothParameters, ClothSimulation
+from mcpilco.errors import ConfigError
+
+log = logging.getLogger(__name__)
+
+
+def excitation_facts(excitation: Excitation) -> dict[str, Any]:
+    return {
+        "amplitude": float(excitation.amplitude),
+        "frequency_range": [float(f) for f in excitation.frequency_range],
+        "num_samples": int(excitation.num_samples),
+    }
+
+
+def dataset_path(
+    directory: Path,
+    parameters: ClothParameters,
+    excitation: Excitation,
+    range_deg: float,
+    seed: int,
+    num_sequences: int,
+) -> Path:
+    """``directory/R<R>_seed<seed>_<hash of cloth and excitation>.npz``."""
+    facts = {
+        "cloth": parameters.fingerprint(),
+        "excitation": excitation_facts(excitation),
+        "num_sequences": num_sequences,
+    }
+    digest = hashlib.sha256(json.dumps(facts, sort_keys=True).encode()).hexdigest()[:10]
+    return directory / f"R{range_deg:g}_seed{seed}_{digest}.npz"
+
+
+def check_compatible(
+    dataset: ClothDataset,
+    parameters: ClothParameters,
+    excitation: Excitation,
+    range_deg: float,
+    source: str,
+) -> None:
+    """One-line :class:`ConfigError` naming the first fact in which a simulated data set
+    differs from the configured cloth, excitation or range."""
+    metadata = dataset.metadata
+    if "cloth" not in metadata:
+        return  # read from CSV: nothing to compare
+    expected = {
+        **{f"cloth.{k}": v for k, v in parameters.fingerprint().items()},
+        **{f"excitation.{k}": v for k, v in excitation_facts(excitation).items()},
+        "data.range_deg": float(range_deg),
+    }
+    found = {
+        **{f"cloth.{k}": v for k, v in metadata["cloth"].items()},
+        **{f"excitation.{k}": v for k, v in metadata.get("excitation", {}).items()},
+        "data.range_deg": metadata.get("range_deg"),
+    }
+    for key, value in expected.items():
+        if found.get(key) != value:
+            raise ConfigError(
+                f"data set {source} was made with {key}={found.get(key)!r}, the config has "
+                f"{value!r}"
+            )
+
+
+def load_or_generate(
+    directory: Path,
+    parameters: ClothParameters,
+    excitation: Excitation,
+    range_deg: float,
+    seed: int,
+    num_sequences: int,
+) -> tuple[ClothDataset, Path]:
+    """The data set of (cloth, excitation, R, seed) with ``num_sequences`` sequences: read
+    from ``directory`` when there, else simulated and written there (atomically)."""
+    path = dataset_path(directory, parameters, excitation, range_deg, seed, num_sequences)
+    if path.exists():
+        dataset = ClothDataset.load(path)
+        check_compatible(dataset, parameters, excitation, range_deg, str(path))
+        return dataset, path
+    log.info(
+        "simulating data set R=%g seed=%d (%d sequences) -> %s",
+        range_deg,
+        seed,
+        num_sequences,
+        path,
+    )
+    dataset = generate(
+        ClothSimulation(parameters), excitation, range_deg, seed, range(num_sequences)
+    )
+    dataset.save(path)
+    return dataset, path
+
+
+def stability_report(dataset: ClothDataset, simulation: ClothSimulation) -> dict[str, float]:
+    """Largest relative edge stretch and largest vertex distance from the mean end-effector
+    position over a data set (an exploded simulation shows in both)."""
+    vertices = dataset.observations.reshape(*dataset.observations.shape[:2], -1, 3)
+    edges = simulation.edges()
+    rest_length = simulation.parameters.side / 7.0
+    lengths = np.linalg.norm(vertices[:, :, edges[:, 0]] - vertices[:, :, edges[:, 1]], axis=-1)
+    corners = vertices[:, :, list(simulation.corner_vertices)].mean(axis=2, keepdims=True)
+    return {
+        "max_edge_stretch": float(lengths.max() / rest_length - 1.0),
+        "mean_edge_stretch": float(lengths.mean() / rest_length - 1.0),
+        "max_distance_from_grip_m": float(np.linalg.norm(vertices - corners, axis=-1).max()),
+    }

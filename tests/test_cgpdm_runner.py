@@ -1,0 +1,95 @@
+"""``python -m runners.cgpdm``: one trained model per run, resumable, bad input refused
+before any simulation or training."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from mcpilco.tracking import read_run_log
+
+ROOT = Path(__file__).resolve().parent.parent
+TINY = [
+    "data.num_sequences=5", "data.num_test=2", "data.num_train=2", "excitation.num_samples=8",
+    "train.steps=1", "train.iterations_per_step=5", "cloth.timestep=0.001",
+    "cloth.edge_timeconst=0.002", "threads=1",
+]  # fmt: skip
+
+
+def run_cgpdm(
+    tmp_path: Path, *overrides: str, run: str = "run"
+) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "runners.cgpdm", *TINY, f"data.dir={tmp_path / 'data'}",
+         f"hydra.run.dir={tmp_path / run}", *overrides],
+        cwd=ROOT, capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+
+
+def errors_in(result: subprocess.CompletedProcess[str]) -> list[str]:
+    return [line for line in (result.stdout + result.stderr).splitlines() if "ERROR" in line]
+
+
+def test_a_run_trains_predicts_logs_and_resumes(tmp_path: Path) -> None:
+    first = run_cgpdm(tmp_path)
+    assert first.returncode == 0, first.stderr[-3000:]
+    run = tmp_path / "run"
+    summary = pd.read_csv(run / "summary.csv")
+    assert summary["sequence"].tolist() == [3, 4] and summary["variant"].tolist() == ["high"] * 2
+    assert (summary[["error_m", "still_error_m", "rigid_error_m"]] > 0).all().all()
+    predictions = np.load(run / "predictions.npz")
+    assert predictions["predicted"].shape == (2, 8, 192) and predictions["latent"].shape == (
+        2,
+        8,
+        3,
+    )
+    log = read_run_log(run)
+    assert sorted(set(log.rollouts["kind"])) == ["cloth", "latent"]
+    assert log.trials["trial"].tolist() == [0, 1]
+    assert sorted((tmp_path / "data").glob("*.npz"))  # the data set is cached
+    again = run_cgpdm(tmp_path)
+    assert again.returncode == 0 and "complete; nothing to do" in again.stderr + again.stdout
+    (run / "summary.csv").unlink()
+    resumed = run_cgpdm(tmp_path)
+    assert resumed.returncode == 0, resumed.stderr[-3000:]
+    assert "loaded the trained model" in resumed.stderr + resumed.stdout
+    pd.testing.assert_frame_equal(
+        pd.read_csv(run / "summary.csv").drop(
+            columns=["fit_seconds", "predict_seconds", "final_loss"]
+        ),
+        summary.drop(columns=["fit_seconds", "predict_seconds", "final_loss"]),
+    )
+
+
+def test_bad_input_is_refused_before_any_simulation(tmp_path: Path) -> None:
+    for overrides, message in (
+        (
+            ["cgpdm.latent_dim=192"],
+            "cgpdm.latent_dim=192 must be below the observation dimension D=192",
+        ),
+        (["data.num_train=4"], "data.num_train=4 must be in [1, 3]"),
+        (["cgpdm=low", "cgpdm.latent_noise=-1"], "cgpdm.latent_noise=-1 must be positive"),
+        (["cloth.mass=0"], "cloth.mass must be positive"),
+    ):
+        result = run_cgpdm(tmp_path, *overrides)
+        assert result.returncode == 2, (overrides, result.stderr[-2000:])
+        assert len(errors_in(result)) == 1 and message in errors_in(result)[0], errors_in(result)
+        assert not (tmp_path / "data").exists()  # nothing simulated
+
+
+def test_a_data_set_of_another_cloth_is_refused(tmp_path: Path) -> None:
+    made = run_cgpdm(tmp_path, "mode=generate", "data.ranges=[30]", run="gen")
+    assert made.returncode == 0, made.stderr[-3000:]
+    dataset = tmp_path / "gen" / "datasets" / "R30.npz"
+    assert dataset.exists() and (tmp_path / "gen" / "rollouts.mcap").exists()
+    assert pd.read_csv(tmp_path / "gen" / "summary.csv")["max_edge_stretch"].iloc[0] < 0.1
+    result = run_cgpdm(tmp_path, f"data.path={dataset}", "cloth.mass=0.05")
+    assert result.returncode == 2
+    assert "made with cloth.mass=0.02, the config has 0.05" in errors_in(result)[0]
+    assert not (tmp_path / "run" / "model.pt").exists()
+    used = run_cgpdm(tmp_path, f"data.path={dataset}")
+    assert used.returncode == 0, used.stderr[-3000:]
