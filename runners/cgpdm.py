@@ -110,6 +110,7 @@ def train_and_evaluate(cfg: DictConfig) -> None:
     cloth: ClothParameters = make(cfg.cloth)
     excitation = excitation_from(cfg)
     model: CGPDM = make(cfg.cgpdm)
+    rerun_mode(cfg)
     fit = CGPDMTraining(**OmegaConf.to_container(cfg.train))  # type: ignore[arg-type]
     if cfg.data.csv_dir is None and not 0 < float(cfg.data.range_deg) <= 360:
         raise ConfigError(f"data.range_deg={cfg.data.range_deg!r} must be in (0, 360]")
@@ -174,7 +175,7 @@ def train_and_evaluate(cfg: DictConfig) -> None:
                 "training_latent": model.sequences().detach().numpy(),
             },
         )
-        log_to_mcap(
+        log_test_sequences(
             cfg,
             run_dir,
             config_yaml,
@@ -200,7 +201,25 @@ def train_and_evaluate(cfg: DictConfig) -> None:
     )
 
 
-def log_to_mcap(
+def rerun_mode(cfg: DictConfig) -> str:
+    """``tracking.rerun``: off or save (one-line error otherwise)."""
+    mode = "off" if cfg.tracking.rerun in (None, False) else str(cfg.tracking.rerun)
+    if mode not in ("off", "save"):
+        raise ConfigError(f"tracking.rerun={mode!r} must be off or save")
+    return mode
+
+
+def tracking_observers(cfg: DictConfig, run_dir: Path) -> list[Any]:
+    """The MCAP logger and, with ``tracking.rerun=save``, the mesh recording."""
+    observers: list[Any] = [McapLogger(run_dir)] if cfg.tracking.mcap else []
+    if rerun_mode(cfg) == "save":
+        from mcpilco.tracking.mesh_stream import MeshRerunStreamer
+
+        observers.append(MeshRerunStreamer(run_dir))
+    return observers
+
+
+def log_test_sequences(
     cfg: DictConfig,
     run_dir: Path,
     config_yaml: str,
@@ -213,9 +232,10 @@ def log_to_mcap(
     loss: float,
     storage: RunDirectory,
 ) -> None:
-    """Per test sequence: the true cloth (state) with the prediction (measurement), the
-    latent trajectory, and its summary row (also appended to ``summary.csv``)."""
-    observers: list[Any] = [McapLogger(run_dir)] if cfg.tracking.mcap else []
+    """Per test sequence, to the MCAP log (and the Rerun recording): the true cloth (state)
+    with the prediction (measurement), the latent trajectory, and its summary row (also
+    appended to ``summary.csv``)."""
+    observers = tracking_observers(cfg, run_dir)
     for observer in observers:
         observer.run_started(run_metadata(config_yaml, cfg.seed, "cpu", "float64"), -1)
     dt = float(cfg.cloth.sample_dt)

@@ -100,6 +100,43 @@ def replay(run_log: RunLog, streamer: RerunStreamer, trials: list[int]) -> None:
     streamer.close()
 
 
+def replay_meshes(run_log: RunLog, args: argparse.Namespace) -> int:
+    """A CGPDM run (``runners.cgpdm``): every whole test sequence's true and predicted cloth
+    and latent trajectory, through the hooks of the live mesh recording."""
+    from mcpilco.tracking.mesh_stream import MeshRerunStreamer
+
+    if args.connect:
+        streamer = MeshRerunStreamer(args.run_dir, mode="connect", url=args.connect)
+    else:
+        out = args.save or args.run_dir / "replay.rrd"
+        streamer = MeshRerunStreamer(out.parent, mode="save", filename=out.name)
+    streamer.run_started(run_log.metadata[0] if run_log.metadata else {}, -1)
+    sequences = args.trial or sorted(run_log.trials["trial"].tolist())
+    replayed = []
+    for trial in sequences:
+        rows = run_log.rollouts[run_log.rollouts["trial"] == trial]
+        parts = {
+            kind: rows[rows["kind"] == kind].dropna(axis=1, how="all")
+            for kind in ("cloth", "latent")
+        }
+        if any(p.empty or p["step"].tolist() != list(range(len(p))) for p in parts.values()):
+            log.warning("sequence %d is not whole in the log; not replayed", trial)
+            continue
+        for kind, part in parts.items():
+            dt = float(part["time"].iloc[1] - part["time"].iloc[0])
+            trajectory = Trajectory(
+                columns(part, "state"), columns(part, "measurement"),
+                columns(part, "action")[:-1], dt,
+            )  # fmt: skip
+            cost = part["cost"].to_numpy()
+            streamer.rollout(trial, trajectory, cost, cost, kind=kind)
+        streamer.trial_finished(trial, {})
+        replayed.append(trial)
+    streamer.close()
+    log.info("replayed test sequences %s", replayed)
+    return 0 if replayed else 2
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("run_dir", type=Path)
@@ -116,6 +153,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if run_log.truncated:
         log.warning("the log ends early (killed run): replaying the trials it holds whole")
+    if len(run_log.rollouts) and "cloth" in set(run_log.rollouts["kind"]):
+        return replay_meshes(run_log, args)
     available = complete_trials(run_log)
     warn_unlogged(args.run_dir, available)
     trials = args.trial or available

@@ -35,7 +35,7 @@ def errors_in(result: subprocess.CompletedProcess[str]) -> list[str]:
 
 
 def test_a_run_trains_predicts_logs_and_resumes(tmp_path: Path) -> None:
-    first = run_cgpdm(tmp_path)
+    first = run_cgpdm(tmp_path, "tracking.rerun=save")
     assert first.returncode == 0, first.stderr[-3000:]
     run = tmp_path / "run"
     summary = pd.read_csv(run / "summary.csv")
@@ -51,6 +51,18 @@ def test_a_run_trains_predicts_logs_and_resumes(tmp_path: Path) -> None:
     assert sorted(set(log.rollouts["kind"])) == ["cloth", "latent"]
     assert log.trials["trial"].tolist() == [0, 1]
     assert sorted((tmp_path / "data").glob("*.npz"))  # the data set is cached
+    assert (run / "recording.rrd").is_file()
+    replay = subprocess.run(
+        [sys.executable, "-m", "runners.replay", str(run)],
+        cwd=ROOT, capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert replay.returncode == 0 and "replayed test sequences [0, 1]" in replay.stderr
+    verify = subprocess.run(
+        [str(Path(sys.executable).parent / "rerun"), "rrd", "verify",
+         str(run / "recording.rrd"), str(run / "replay.rrd")],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert verify.returncode == 0, verify.stderr[-2000:]
     again = run_cgpdm(tmp_path)
     assert again.returncode == 0 and "complete; nothing to do" in again.stderr + again.stdout
     (run / "summary.csv").unlink()
@@ -74,6 +86,8 @@ def test_bad_input_is_refused_before_any_simulation(tmp_path: Path) -> None:
         (["data.num_train=4"], "data.num_train=4 must be in [1, 3]"),
         (["cgpdm=low", "cgpdm.latent_noise=-1"], "cgpdm.latent_noise=-1 must be positive"),
         (["cloth.mass=0"], "cloth.mass must be positive"),
+        (["tracking.rerun=connect"], "tracking.rerun='connect' must be off or save"),
+        (["train.steps=0"], "train.steps=0 must be a positive integer"),
     ):
         result = run_cgpdm(tmp_path, *overrides)
         assert result.returncode == 2, (overrides, result.stderr[-2000:])
