@@ -9,7 +9,16 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
+import torch
+from hydra import compose, initialize_config_dir
+from hydra.utils import instantiate
+from omegaconf import OmegaConf
+from test_cgpdm import linear_system_data
 
+from mcpilco.latent import TrainingData
+from mcpilco.latent.training import CGPDMTraining
+from mcpilco.safe_config import check_targets
 from mcpilco.tracking import read_run_log
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -107,3 +116,29 @@ def test_a_data_set_of_another_cloth_is_refused(tmp_path: Path) -> None:
     assert not (tmp_path / "run" / "model.pt").exists()
     used = run_cgpdm(tmp_path, f"data.path={dataset}")
     assert used.returncode == 0, used.stderr[-3000:]
+
+
+@pytest.mark.parametrize("variant", ["high", "low"])
+def test_both_variants_compose_build_and_train(variant: str) -> None:
+    with initialize_config_dir(version_base="1.3", config_dir=str(ROOT / "conf")):
+        cfg = compose("cgpdm", overrides=[f"cgpdm={variant}", "+experiment=cgpdm_study"])
+    check_targets(cfg)
+    model = instantiate(cfg.cgpdm)
+    kernel_parameters = {
+        "high": {"latent": 3, "dynamics": 9 + 9 + 1},  # ARD SE; ARD SE + ARD linear + bias
+        "low": {"latent": 1, "dynamics": 1 + 1 + 1},  # isotropic SE; α1, α2, α3
+    }[variant]
+    observations, controls = linear_system_data(3, 10, seed=0, observation_dim=12)
+    controls = torch.cat([controls] * 3, dim=-1)  # E = 6
+    model.set_data(TrainingData(observations, controls))
+    counts = {
+        "latent": sum(p.numel() for p in model.latent_kernel.parameters() if p.requires_grad),
+        "dynamics": sum(p.numel() for p in model.dynamics_kernel.parameters() if p.requires_grad),
+    }
+    assert counts == kernel_parameters
+    assert model.log_latent_scale.requires_grad == (variant == "high")
+    assert model.log_dynamics_scale.requires_grad == (variant == "high")
+    trace = CGPDMTraining(**OmegaConf.to_container(cfg.train) | {"steps": 2})(model)
+    assert len(trace) == 2 and trace[1] <= trace[0]
+    latent, predicted = model.predict(controls)
+    assert latent.shape == (3, 10, 3) and predicted.shape == (3, 10, 12)

@@ -60,6 +60,8 @@ class CGPDM(nn.Module):
         latent_scale: initial w_y.
         dynamics_scale: initial w_x.
         min_noise: numerical floor added to both noise standard deviations' variances.
+        center_observations: subtract the training mean from y (the authors' library does
+            not: its latent GP models the raw coordinates).
     """
 
     def __init__(
@@ -74,6 +76,7 @@ class CGPDM(nn.Module):
         latent_scale: float = 1.0,
         dynamics_scale: float = 1.0,
         min_noise: float = 1e-3,
+        center_observations: bool = True,
     ) -> None:
         super().__init__()
         if not isinstance(latent_dim, int) or latent_dim < 1:
@@ -99,6 +102,7 @@ class CGPDM(nn.Module):
         self.train_latent_scales = train_latent_scales
         self.train_dynamics_scales = train_dynamics_scales
         self.min_noise_variance = float(min_noise) ** 2
+        self.center_observations = bool(center_observations)
         self.output_names = "CGPDM"
         self._posterior: _Posterior | None = None
 
@@ -119,8 +123,9 @@ class CGPDM(nn.Module):
                 f"dimension D={dim}"
             )
         flat = observations.reshape(p * n, dim)
-        self.register_buffer("observation_mean", flat.mean(0))
-        moving = flat.std(0) > CONSTANT_TOLERANCE
+        mean = flat.mean(0) if self.center_observations else torch.zeros_like(flat[0])
+        self.register_buffer("observation_mean", mean)
+        moving = (flat - mean).abs().amax(0) > CONSTANT_TOLERANCE
         if int(moving.sum()) <= self.latent_dim:
             raise ConfigError(
                 f"only {int(moving.sum())} observation coordinates vary in the training data; "
