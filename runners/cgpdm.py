@@ -29,8 +29,8 @@ from omegaconf import DictConfig, OmegaConf
 
 from mcpilco.build import make
 from mcpilco.cloth import ClothDataset, ClothParameters, ClothSimulation, Excitation
-from mcpilco.cloth.dataset import generate, read_csv_sequences
-from mcpilco.cloth.store import check_compatible, load_or_generate, stability_report
+from mcpilco.cloth.dataset import read_csv_sequences
+from mcpilco.cloth.store import check_compatible, load_or_generate
 from mcpilco.errors import ConfigError
 from mcpilco.latent import CGPDM
 from mcpilco.latent.study import check_sizes, evaluate, score, split, train, training_data
@@ -39,26 +39,12 @@ from mcpilco.run_storage import RunDirectory, load_tensors
 from mcpilco.safe_config import check_targets
 from mcpilco.tracking import McapLogger
 from mcpilco.tracking.metadata import run_metadata
-from mcpilco.trajectory import Trajectory
+from runners.cloth_data import excitation_from, generate_datasets, sequence_trajectory
 from runners.failures import run_reporting_failures
+from runners.options import rerun_mode
 
 CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.cgpdm")
-
-
-def excitation_from(cfg: DictConfig) -> Excitation:
-    """``excitation.*`` checked: one-line errors naming the key."""
-    node = cfg.excitation
-    low, high = (float(f) for f in node.frequency_range)
-    if not 0 < low <= high:
-        raise ConfigError(
-            f"excitation.frequency_range={list(node.frequency_range)} must be 0 < low <= high"
-        )
-    if not node.amplitude > 0:
-        raise ConfigError(f"excitation.amplitude={node.amplitude!r} must be positive")
-    if not isinstance(node.num_samples, int) or node.num_samples < 3:
-        raise ConfigError(f"excitation.num_samples={node.num_samples!r} must be an integer >= 3")
-    return Excitation(float(node.amplitude), (low, high), int(node.num_samples))
 
 
 def check_latent_dim(latent_dim: int, observation_dim: int) -> None:
@@ -89,17 +75,6 @@ def load_dataset(cfg: DictConfig, cloth: ClothParameters, excitation: Excitation
         int(data.num_sequences),
     )
     return dataset
-
-
-def sequence_trajectory(
-    observations: np.ndarray, controls: np.ndarray, dt: float, measured: np.ndarray | None = None
-) -> Trajectory:
-    return Trajectory(
-        states=observations,
-        measurements=observations if measured is None else measured,
-        actions=controls,
-        dt=dt,
-    )
 
 
 def train_and_evaluate(cfg: DictConfig) -> None:
@@ -201,14 +176,6 @@ def train_and_evaluate(cfg: DictConfig) -> None:
     )
 
 
-def rerun_mode(cfg: DictConfig) -> str:
-    """``tracking.rerun``: off or save (one-line error otherwise)."""
-    mode = "off" if cfg.tracking.rerun in (None, False) else str(cfg.tracking.rerun)
-    if mode not in ("off", "save"):
-        raise ConfigError(f"tracking.rerun={mode!r} must be off or save")
-    return mode
-
-
 def tracking_observers(cfg: DictConfig, run_dir: Path) -> list[Any]:
     """The MCAP logger and, with ``tracking.rerun=save``, the mesh recording."""
     observers: list[Any] = [McapLogger(run_dir)] if cfg.tracking.mcap else []
@@ -280,65 +247,6 @@ def log_test_sequences(
     finally:
         for observer in observers:
             observer.close()
-
-
-def generate_datasets(cfg: DictConfig) -> None:
-    """``mode=generate``: every range of ``data.ranges``, written and checked."""
-    check_targets(cfg)
-    cloth: ClothParameters = make(cfg.cloth)
-    excitation = excitation_from(cfg)
-    simulation = ClothSimulation(cloth)
-    run_dir = Path(HydraConfig.get().runtime.output_dir)
-    storage = RunDirectory(run_dir)
-    with storage.locked():
-        config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
-        storage.write_text("config.yaml", config_yaml)
-        observers: list[Any] = [McapLogger(run_dir)] if cfg.tracking.mcap else []
-        for observer in observers:
-            observer.run_started(run_metadata(config_yaml, cfg.data.seed, "cpu", "float64"), -1)
-        try:
-            for index, range_deg in enumerate(cfg.data.ranges):
-                dataset = generate(
-                    simulation,
-                    excitation,
-                    float(range_deg),
-                    int(cfg.data.seed),
-                    range(int(cfg.data.num_sequences)),
-                )
-                dataset.save(run_dir / "datasets" / f"R{float(range_deg):g}.npz")
-                report = stability_report(dataset, simulation)
-                for k in range(len(dataset.indices)):
-                    zero = np.zeros(dataset.observations.shape[1])
-                    for observer in observers:
-                        observer.rollout(
-                            index * 1000 + k,
-                            sequence_trajectory(
-                                dataset.observations[k], dataset.controls[k], cloth.sample_dt
-                            ),
-                            zero,
-                            zero,
-                            kind=f"cloth_R{float(range_deg):g}",
-                        )
-                row = {
-                    "trial": index,
-                    "range_deg": float(range_deg),
-                    "sequences": len(dataset.indices),
-                    **report,
-                }
-                storage.append_summary(row)
-                for observer in observers:
-                    observer.trial_finished(index, row)
-                log.info(
-                    "R=%g: %d sequences, largest edge stretch %.2f %%, farthest vertex "
-                    "%.3f m from the grip",
-                    range_deg,
-                    len(dataset.indices),
-                    100 * report["max_edge_stretch"],
-                    report["max_distance_from_grip_m"],
-                )
-        finally:
-            for observer in observers:
-                observer.close()
 
 
 @hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="cgpdm")

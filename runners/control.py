@@ -36,6 +36,7 @@ from mcpilco.tracking import McapLogger
 from mcpilco.tracking.metadata import run_metadata
 from mcpilco.trajectory import Trajectory
 from runners.failures import run_reporting_failures
+from runners.options import rerun_mode
 
 CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.control")
@@ -56,14 +57,6 @@ def check_reference(reference: DictConfig) -> None:
             raise ConfigError(f"reference.{key}={value!r} must be a finite number")
     if not 0 <= reference.settle < reference.duration:
         raise ConfigError(f"reference.settle={reference.settle} must be in [0, duration)")
-
-
-def rerun_mode(cfg: DictConfig) -> str:
-    """``tracking.rerun``: off or save (one-line error otherwise)."""
-    mode = "off" if cfg.tracking.rerun in (None, False) else str(cfg.tracking.rerun)
-    if mode not in ("off", "save"):
-        raise ConfigError(f"tracking.rerun={mode!r} must be off or save")
-    return mode
 
 
 def tracking_observers(cfg: DictConfig, run_dir: Path) -> list[Any]:
