@@ -79,6 +79,45 @@ def cells(models: pd.DataFrame) -> pd.DataFrame:
     return table
 
 
+def paired(models: pd.DataFrame, first: str = "high", second: str = "low") -> pd.DataFrame:
+    """Per (R, n): the two variants trained on the same draws compared draw by draw — how
+    often ``first`` has the lower error, and the two-sided Wilcoxon signed-rank p-value."""
+    rows = []
+    for (range_deg, num_train), part in models.groupby(["range_deg", "num_train"]):
+        wide = part.pivot_table(index="draw", columns="variant", values="error_m")
+        if first not in wide or second not in wide:
+            continue
+        both = wide[[first, second]].dropna()
+        if both.empty:
+            continue
+        difference = both[first] - both[second]
+        p_value = (
+            float(stats.wilcoxon(difference).pvalue)
+            if len(both) >= 5 and difference.abs().sum() > 0
+            else float("nan")
+        )
+        rows.append(
+            {"range_deg": range_deg, "num_train": num_train, "draws": len(both),
+             f"{first}_better": int((difference < 0).sum()), "wilcoxon_p": p_value}
+        )  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def paired_markdown(comparison: pd.DataFrame) -> str:
+    lines = [
+        "Draw by draw (the same training sets), high against low:",
+        "",
+        "| R (deg) | sequences | draws | high better | Wilcoxon p |",
+        "|---|---|---|---|---|",
+    ]
+    for row in comparison.itertuples():
+        lines.append(
+            f"| {row.range_deg:g} | {row.num_train} | {row.draws} | {row.high_better} | "
+            f"{row.wilcoxon_p:.3g} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def markdown(table: pd.DataFrame) -> str:
     lines = [
         "| R (deg) | variant | sequences | draws | error (m), mean ± 95 % CI | median | "
@@ -195,7 +234,9 @@ def main() -> None:
     models.to_csv(args.out / "models.csv", index=False)
     table = cells(models)
     table.to_csv(args.out / "errors.csv", index=False)
-    (args.out / "errors.md").write_text(markdown(table))
+    comparison = paired(models)
+    comparison.to_csv(args.out / "paired.csv", index=False)
+    (args.out / "errors.md").write_text(markdown(table) + "\n" + paired_markdown(comparison))
     plot_errors(table, args.out)
     if args.figure_run is not None:
         plot_run(args.figure_run, args.out)
