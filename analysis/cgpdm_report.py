@@ -50,12 +50,27 @@ def load_models(paths: list[Path]) -> tuple[pd.DataFrame, list[Path]]:
                 predict_seconds=("predict_seconds", "first"), test_sequences=("error_m", "size"),
             )  # fmt: skip
             row["run"] = str(run)
+            row["left_region"] = left_training_region(run / "predictions.npz")
             rows.append(row)
         for failed in root.rglob("failed.txt"):
             if failed.parent not in left_out and not (failed.parent / "summary.csv").exists():
                 left_out.append(failed.parent)
     models = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=MODEL_COLUMNS)
     return models, left_out
+
+
+def left_training_region(predictions: Path, margin: float = 0.5) -> float:
+    """Fraction of the test sequences whose predicted latent trajectory leaves the box of
+    the training latent states widened by ``margin`` × its size on every side (where the
+    GPs have no data: the prediction then extrapolates); NaN without the file."""
+    if not predictions.exists():
+        return float("nan")
+    with np.load(predictions) as arrays:
+        latent, training = arrays["latent"], arrays["training_latent"]
+    low, high = training.min(axis=(0, 1)), training.max(axis=(0, 1))
+    size = high - low
+    outside = (latent < low - margin * size) | (latent > high + margin * size)
+    return float(outside.any(axis=(1, 2)).mean())
 
 
 def cells(models: pd.DataFrame) -> pd.DataFrame:
@@ -74,6 +89,7 @@ def cells(models: pd.DataFrame) -> pd.DataFrame:
         error_median=("error_m", "median"), still=("still_error_m", "mean"),
         rigid=("rigid_error_m", "mean"), fit_seconds=("fit_seconds", "mean"),
         predict_ms=("predict_seconds", lambda s: 1000 * s.mean()),
+        left_region=("left_region", "mean"),
     ).reset_index()  # fmt: skip
     table.insert(5, "error_ci95", grouped["error_m"].apply(half_width).to_numpy())
     return table
@@ -121,14 +137,16 @@ def paired_markdown(comparison: pd.DataFrame) -> str:
 def markdown(table: pd.DataFrame) -> str:
     lines = [
         "| R (deg) | variant | sequences | draws | error (m), mean ± 95 % CI | median | "
-        "still (m) | rigid (m) | training (s) | prediction (ms/seq) |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "left the training region | still (m) | rigid (m) | training (s) | "
+        "prediction (ms/seq) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row in table.itertuples():
         lines.append(
             f"| {row.range_deg:g} | {row.variant} | {row.num_train} | {row.draws} | "
             f"{row.error_mean:.4f} ± {row.error_ci95:.4f} | {row.error_median:.4f} | "
-            f"{row.still:.4f} | {row.rigid:.4f} | {row.fit_seconds:.1f} | {row.predict_ms:.1f} |"
+            f"{100 * row.left_region:.0f} % | {row.still:.4f} | {row.rigid:.4f} | "
+            f"{row.fit_seconds:.1f} | {row.predict_ms:.1f} |"
         )
     lines.append("")
     lines.append(
