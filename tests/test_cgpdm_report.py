@@ -66,3 +66,17 @@ def test_report_command_writes_the_table_and_figure(tmp_path: Path) -> None:
     assert "| 30 | high | 5 | 5 |" in text and "R = 30: 0.012 ± 0.005 m" in text
     assert (tmp_path / "out" / "errors.png").stat().st_size > 10_000
     assert "left out" in result.stderr and "broken" in result.stderr
+
+
+def test_left_training_region_counts_latent_paths_outside_the_widened_box(tmp_path: Path) -> None:
+    from analysis.cgpdm_report import left_training_region
+
+    training = np.zeros((2, 5, 3))
+    training[1, :, 0] = 1.0  # box [0, 1] on x1, [0, 0] elsewhere
+    latent = np.zeros((4, 5, 3))
+    latent[1, 3, 0] = 1.4  # inside [-0.5, 1.5]
+    latent[2, 4, 0] = 1.6  # outside
+    latent[3, 2, 1] = 1e-9  # outside a box of size 0 on x2
+    np.savez(tmp_path / "p.npz", latent=latent, training_latent=training)
+    assert left_training_region(tmp_path / "p.npz") == pytest.approx(0.5)
+    assert np.isnan(left_training_region(tmp_path / "missing.npz"))
