@@ -101,8 +101,9 @@ def replay(run_log: RunLog, streamer: RerunStreamer, trials: list[int]) -> None:
 
 
 def replay_meshes(run_log: RunLog, args: argparse.Namespace) -> int:
-    """A CGPDM run (``runners.cgpdm``): every whole test sequence's true and predicted cloth
-    and latent trajectory, through the hooks of the live mesh recording."""
+    """A cloth run (``runners.cgpdm``): every whole rollout — test sequences (true and
+    predicted cloth), latent trajectories, generated data sets — through the hooks of the
+    live mesh recording."""
     from mcpilco.tracking.mesh_stream import MeshRerunStreamer
 
     if args.connect:
@@ -111,30 +112,28 @@ def replay_meshes(run_log: RunLog, args: argparse.Namespace) -> int:
         out = args.save or args.run_dir / "replay.rrd"
         streamer = MeshRerunStreamer(out.parent, mode="save", filename=out.name)
     streamer.run_started(run_log.metadata[0] if run_log.metadata else {}, -1)
-    sequences = args.trial or sorted(run_log.trials["trial"].tolist())
-    replayed = []
-    for trial in sequences:
-        rows = run_log.rollouts[run_log.rollouts["trial"] == trial]
-        parts = {
-            kind: rows[rows["kind"] == kind].dropna(axis=1, how="all")
-            for kind in ("cloth", "latent")
-        }
-        if any(p.empty or p["step"].tolist() != list(range(len(p))) for p in parts.values()):
-            log.warning("sequence %d is not whole in the log; not replayed", trial)
+    rollouts = run_log.rollouts
+    if args.trial:
+        rollouts = rollouts[rollouts["trial"].isin(args.trial)]
+    replayed, skipped = set(), set()
+    for (trial, kind), rows in rollouts.groupby(["trial", "kind"], sort=True):
+        part = rows.dropna(axis=1, how="all")
+        if len(part) < 2 or part["step"].tolist() != list(range(len(part))):
+            skipped.add(int(trial))
             continue
-        for kind, part in parts.items():
-            dt = float(part["time"].iloc[1] - part["time"].iloc[0])
-            trajectory = Trajectory(
-                columns(part, "state"), columns(part, "measurement"),
-                columns(part, "action")[:-1], dt,
-            )  # fmt: skip
-            cost = part["cost"].to_numpy()
-            streamer.rollout(trial, trajectory, cost, cost, kind=kind)
-        streamer.trial_finished(trial, {})
-        replayed.append(trial)
+        dt = float(part["time"].iloc[1] - part["time"].iloc[0])
+        trajectory = Trajectory(
+            columns(part, "state"), columns(part, "measurement"),
+            columns(part, "action")[:-1], dt,
+        )  # fmt: skip
+        cost = part["cost"].to_numpy()
+        streamer.rollout(int(trial), trajectory, cost, cost, kind=str(kind))
+        replayed.add(int(trial))
     streamer.close()
-    log.info("replayed test sequences %s", replayed)
-    return 0 if replayed else 2
+    if skipped:
+        log.warning("sequences %s are not whole in the log; not replayed", sorted(skipped))
+    log.info("replayed sequences %s", sorted(replayed - skipped))
+    return 0 if replayed - skipped else 2
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -153,7 +152,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if run_log.truncated:
         log.warning("the log ends early (killed run): replaying the trials it holds whole")
-    if len(run_log.rollouts) and "cloth" in set(run_log.rollouts["kind"]):
+    if len(run_log.rollouts) and any(str(k).startswith("cloth") for k in run_log.rollouts["kind"]):
         return replay_meshes(run_log, args)
     available = complete_trials(run_log)
     warn_unlogged(args.run_dir, available)

@@ -65,7 +65,7 @@ def test_a_run_trains_predicts_logs_and_resumes(tmp_path: Path) -> None:
         [sys.executable, "-m", "runners.replay", str(run)],
         cwd=ROOT, capture_output=True, text=True, timeout=600,
     )  # fmt: skip
-    assert replay.returncode == 0 and "replayed test sequences [0, 1]" in replay.stderr
+    assert replay.returncode == 0 and "replayed sequences [0, 1]" in replay.stderr
     verify = subprocess.run(
         [str(Path(sys.executable).parent / "rerun"), "rrd", "verify",
          str(run / "recording.rrd"), str(run / "replay.rrd")],
@@ -110,6 +110,11 @@ def test_a_data_set_of_another_cloth_is_refused(tmp_path: Path) -> None:
     dataset = tmp_path / "gen" / "datasets" / "R30.npz"
     assert dataset.exists() and (tmp_path / "gen" / "rollouts.mcap").exists()
     assert pd.read_csv(tmp_path / "gen" / "summary.csv")["max_edge_stretch"].iloc[0] < 0.1
+    replay = subprocess.run(
+        [sys.executable, "-m", "runners.replay", str(tmp_path / "gen")],
+        cwd=ROOT, capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert replay.returncode == 0 and "replayed sequences [0, 1, 2, 3, 4]" in replay.stderr
     result = run_cgpdm(tmp_path, f"data.path={dataset}", "cloth.mass=0.05")
     assert result.returncode == 2
     assert "made with cloth.mass=0.02, the config has 0.05" in errors_in(result)[0]

@@ -2,7 +2,9 @@
 
 An observer for rollouts whose states are the points of a square mesh (x₁ y₁ z₁ x₂ …):
 kind ``cloth`` carries the true mesh as states and the predicted mesh as measurements;
-kind ``latent`` carries the predicted latent trajectory as states. Entities, per sequence k:
+kind ``latent`` carries the predicted latent trajectory as states; kinds ``cloth_<name>``
+(generated data sets) carry true meshes only, drawn on ``cloth_<name>/seq_k``. Entities, per
+sequence k:
 ``cloth/seq_k/true`` and ``cloth/seq_k/predicted`` (points and grid lines on the ``time``
 timeline, seconds), ``cloth/seq_k/error`` (mean point distance, m), ``latent/seq_k/path``
 (the whole latent curve) and ``latent/seq_k/state`` (the current latent state).
@@ -90,6 +92,9 @@ class MeshRerunStreamer(TrialObserver):
                 columns=rr.Scalars.columns(scalars=np.asarray(costs, dtype=np.float64)),
             )
             self._sequences.append(trial)
+        elif kind is not None and kind.startswith("cloth_"):  # a generated data set
+            for t, time_s in enumerate(times):
+                self._mesh(f"{kind}/seq_{trial}", time_s, trajectory.states[t], "true")
         elif kind == "latent":
             path = trajectory.states
             self.recording.log(f"latent/seq_{trial}/path", rr.LineStrips3D([path]), static=True)
