@@ -187,7 +187,7 @@ def plot_errors(table: pd.DataFrame, out: Path) -> None:
         )
         axis.set_title(f"R = {range_deg:g}°")
         axis.set_xlabel("training sequences")
-        axis.set_yscale("log")
+        axis.set_ylim(bottom=0.0)
         axis.grid(alpha=0.3)
     axes[0][0].set_ylabel("mean point distance (m)")
     axes[0][-1].legend(fontsize=7)
