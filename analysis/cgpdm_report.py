@@ -157,40 +157,37 @@ def markdown(table: pd.DataFrame) -> str:
 
 
 def plot_errors(table: pd.DataFrame, out: Path) -> None:
-    """Fig. 6.5: error against the number of training sequences, one panel per R."""
+    """Fig. 6.5: error against the number of training sequences, one panel per R; one
+    colour per variant in every panel."""
     ranges = sorted(table.range_deg.unique())
+    variants = sorted(table.variant.unique())
+    palette = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    colors = dict(zip(variants, palette, strict=False))
+    offsets = dict(zip(variants, np.linspace(-0.4, 0.4, len(variants)), strict=True))
     figure, axes = plt.subplots(
         1, len(ranges), figsize=(3.2 * len(ranges), 3.2), sharey=True, squeeze=False
     )
     for axis, range_deg in zip(axes[0], ranges, strict=True):
         part = table[table.range_deg == range_deg]
-        for offset, (variant, rows) in zip((-0.4, 0.4), part.groupby("variant"), strict=False):
+        for variant, rows in part.groupby("variant"):
             axis.errorbar(
-                rows.num_train + offset,
-                rows.error_mean,
-                yerr=rows.error_ci95,
-                fmt="o",
-                capsize=3,
-                label=f"{variant}",
-            )
-        axis.plot(
-            part.num_train.unique(),
-            part.groupby("num_train").still.mean(),
-            "k:",
-            label="still cloth",
-        )
-        axis.plot(
-            part.num_train.unique(),
-            part.groupby("num_train").rigid.mean(),
-            "k--",
-            label="rigid with grip",
-        )
+                rows.num_train + offsets[variant], rows.error_mean, yerr=rows.error_ci95,
+                fmt="o", capsize=3, color=colors[variant], label=str(variant),
+            )  # fmt: skip
+        sizes = sorted(part.num_train.unique())
+        baselines = part.groupby("num_train")[["still", "rigid"]].mean().loc[sizes]
+        axis.plot(sizes, baselines.still, "k:", label="still cloth")
+        axis.plot(sizes, baselines.rigid, "k--", label="rigid with grip")
         axis.set_title(f"R = {range_deg:g}°")
         axis.set_xlabel("training sequences")
         axis.set_ylim(bottom=0.0)
         axis.grid(alpha=0.3)
     axes[0][0].set_ylabel("mean point distance (m)")
-    axes[0][-1].legend(fontsize=7)
+    handles = {}
+    for axis in axes[0]:
+        for handle, label in zip(*axis.get_legend_handles_labels(), strict=True):
+            handles.setdefault(label, handle)
+    axes[0][-1].legend(handles.values(), handles.keys(), fontsize=7)
     figure.tight_layout()
     for suffix in ("png", "svg"):
         figure.savefig(out / f"errors.{suffix}", dpi=130)
