@@ -27,7 +27,7 @@ import torch
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
-from mcpilco.build import make
+from mcpilco.build import make, resolve_device
 from mcpilco.cloth import ClothDataset, ClothParameters, ClothSimulation, Excitation
 from mcpilco.cloth.dataset import read_csv_sequences
 from mcpilco.cloth.store import check_compatible, load_or_generate
@@ -86,6 +86,7 @@ def train_and_evaluate(cfg: DictConfig) -> None:
     excitation = excitation_from(cfg)
     model: CGPDM = make(cfg.cgpdm)
     rerun_mode(cfg)
+    device = resolve_device(str(cfg.device))
     fit = CGPDMTraining(**OmegaConf.to_container(cfg.train))  # type: ignore[arg-type]
     if cfg.data.csv_dir is None and not 0 < float(cfg.data.range_deg) <= 360:
         raise ConfigError(f"data.range_deg={cfg.data.range_deg!r} must be in (0, 360]")
@@ -118,7 +119,7 @@ def train_and_evaluate(cfg: DictConfig) -> None:
             ),
         )
         saved = run_dir / "model.pt"
-        model.set_data(training_data(training))
+        model.set_data(training_data(training, device))
         if saved.exists():
             model.load_state_dict(load_tensors(saved))
             loss, seconds = float(model.negative_log_marginal_likelihood().detach()), float("nan")
@@ -147,7 +148,7 @@ def train_and_evaluate(cfg: DictConfig) -> None:
                 "predicted": predicted,
                 "true": test.observations,
                 "controls": test.controls,
-                "training_latent": model.sequences().detach().numpy(),
+                "training_latent": model.sequences().detach().cpu().numpy(),
             },
         )
         log_test_sequences(

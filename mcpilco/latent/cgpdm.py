@@ -158,6 +158,7 @@ class CGPDM(nn.Module):
         )
         self.log_latent_noise = nn.Parameter(torch.tensor(init["latent_noise"]).log().double())
         self.log_dynamics_noise = nn.Parameter(torch.tensor(init["dynamics_noise"]).log().double())
+        self.to(observations.device)  # kernels and scales join the data's device
         self._posterior = None
 
     @property
@@ -258,9 +259,10 @@ class CGPDM(nn.Module):
             latent trajectories ``[S, T, d]``.
         """
         posterior = self._posterior_or_fail()
-        states = [x0.to(torch.float64)]
+        like = self.latent_states
+        states = [x0.to(like)]
         for t in range(controls.shape[1]):
-            control = controls[:, t].to(torch.float64) / self.control_scale
+            control = controls[:, t].to(like) / self.control_scale
             query = torch.cat([states[-1], control], dim=-1)
             cross = self.dynamics_kernel(query, posterior.dynamics_inputs)[0]  # [S, N−P]
             states.append(states[-1] + cross @ posterior.dynamics_weights)
@@ -274,7 +276,7 @@ class CGPDM(nn.Module):
             ``(mean [..., D], variance [..., D])``; constant coordinates have variance 0.
         """
         posterior = self._posterior_or_fail()
-        flat = latent.reshape(-1, latent.shape[-1]).to(torch.float64)
+        flat = latent.reshape(-1, latent.shape[-1]).to(self.latent_states)
         cross = self.latent_kernel(flat, posterior.latent_inputs)[0]  # [M, N]
         mean_moving = cross @ posterior.latent_weights
         solved = torch.cholesky_solve(cross.T, posterior.latent_factor)  # [N, M]

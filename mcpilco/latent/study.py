@@ -61,8 +61,11 @@ class CellResult:
     final_loss: float
 
 
-def training_data(training: ClothDataset) -> TrainingData:
-    return TrainingData(torch.as_tensor(training.observations), torch.as_tensor(training.controls))
+def training_data(training: ClothDataset, device: torch.device | str = "cpu") -> TrainingData:
+    return TrainingData(
+        torch.as_tensor(training.observations, device=device),
+        torch.as_tensor(training.controls, device=device),
+    )
 
 
 def train(model: CGPDM, fit: CGPDMTraining) -> tuple[list[float], float]:
@@ -76,9 +79,10 @@ def evaluate(model: CGPDM, test: ClothDataset) -> tuple[np.ndarray, np.ndarray, 
     """Predict every test sequence from the common initial state: (latent [S, N, d],
     observations [S, N, D], seconds per sequence)."""
     start = time.perf_counter()
-    latent, predicted = model.predict(torch.as_tensor(test.controls))
-    seconds = (time.perf_counter() - start) / len(test.indices)
-    return latent.numpy(), predicted.numpy(), seconds
+    controls = torch.as_tensor(test.controls, device=model.latent_states.device)
+    latent, predicted = (tensor.cpu().numpy() for tensor in model.predict(controls))
+    seconds = (time.perf_counter() - start) / len(test.indices)  # after the copy: synchronised
+    return latent, predicted, seconds
 
 
 def score(test: ClothDataset, predicted: np.ndarray) -> dict[str, np.ndarray]:
