@@ -30,7 +30,7 @@ from omegaconf import DictConfig, OmegaConf
 from mcpilco.build import make, resolve_device
 from mcpilco.cloth import ClothDataset, ClothParameters, ClothSimulation, Excitation
 from mcpilco.cloth.dataset import read_csv_sequences
-from mcpilco.cloth.store import check_compatible, load_or_generate
+from mcpilco.cloth.store import DatasetKey, check_compatible, load_or_generate
 from mcpilco.errors import ConfigError
 from mcpilco.latent import CGPDM
 from mcpilco.latent.study import check_sizes, evaluate, score, split, train, training_data
@@ -66,14 +66,9 @@ def load_dataset(cfg: DictConfig, cloth: ClothParameters, excitation: Excitation
         dataset = ClothDataset.load(Path(data.path))
         check_compatible(dataset, cloth, excitation, data.range_deg, str(data.path))
         return dataset
-    dataset, _ = load_or_generate(
-        Path(data.dir),
-        cloth,
-        excitation,
-        float(data.range_deg),
-        int(data.seed),
-        int(data.num_sequences),
-    )
+    key = DatasetKey(cloth, excitation, float(data.range_deg), int(data.seed),
+                     int(data.num_sequences))  # fmt: skip
+    dataset, _ = load_or_generate(Path(data.dir), key)
     return dataset
 
 

@@ -10,7 +10,7 @@ import pytest
 
 from mcpilco.cloth import ClothDataset, ClothParameters, ClothSimulation, Excitation, generate
 from mcpilco.cloth.dataset import read_csv_sequences
-from mcpilco.cloth.store import check_compatible, load_or_generate, stability_report
+from mcpilco.cloth.store import DatasetKey, check_compatible, load_or_generate, stability_report
 from mcpilco.errors import ConfigError
 
 SHORT = Excitation(num_samples=21)  # 1 s instead of 3 s
@@ -98,9 +98,10 @@ def test_saved_data_sets_round_trip_and_another_cloth_is_refused(
 
 def test_the_cache_simulates_once(tmp_path: Path) -> None:
     parameters = ClothParameters(timestep=0.001, edge_timeconst=0.002)
-    first, path = load_or_generate(tmp_path, parameters, SHORT, 30.0, 0, 2)
+    key = DatasetKey(parameters, SHORT, 30.0, 0, 2)
+    first, path = load_or_generate(tmp_path, key)
     stamp = path.stat().st_mtime_ns
-    second, same = load_or_generate(tmp_path, parameters, SHORT, 30.0, 0, 2)
+    second, same = load_or_generate(tmp_path, key)
     assert same == path and path.stat().st_mtime_ns == stamp
     np.testing.assert_array_equal(first.observations, second.observations)
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -25,22 +26,26 @@ def excitation_facts(excitation: Excitation) -> dict[str, Any]:
     }
 
 
-def dataset_path(
-    directory: Path,
-    parameters: ClothParameters,
-    excitation: Excitation,
-    range_deg: float,
-    seed: int,
-    num_sequences: int,
-) -> Path:
-    """``directory/R<R>_seed<seed>_<hash of cloth and excitation>.npz``."""
-    facts = {
-        "cloth": parameters.fingerprint(),
-        "excitation": excitation_facts(excitation),
-        "num_sequences": num_sequences,
-    }
-    digest = hashlib.sha256(json.dumps(facts, sort_keys=True).encode()).hexdigest()[:10]
-    return directory / f"R{range_deg:g}_seed{seed}_{digest}.npz"
+@dataclass(frozen=True)
+class DatasetKey:
+    """What names a simulated data set: the cloth, the excitation, R, the seed and the
+    number of sequences."""
+
+    parameters: ClothParameters
+    excitation: Excitation
+    range_deg: float
+    seed: int
+    num_sequences: int
+
+    def path(self, directory: Path) -> Path:
+        """``directory/R<R>_seed<seed>_<hash of cloth, excitation and size>.npz``."""
+        facts = {
+            "cloth": self.parameters.fingerprint(),
+            "excitation": excitation_facts(self.excitation),
+            "num_sequences": self.num_sequences,
+        }
+        digest = hashlib.sha256(json.dumps(facts, sort_keys=True).encode()).hexdigest()[:10]
+        return directory / f"R{self.range_deg:g}_seed{self.seed}_{digest}.npz"
 
 
 def check_compatible(
@@ -73,31 +78,22 @@ def check_compatible(
             )
 
 
-def load_or_generate(
-    directory: Path,
-    parameters: ClothParameters,
-    excitation: Excitation,
-    range_deg: float,
-    seed: int,
-    num_sequences: int,
-) -> tuple[ClothDataset, Path]:
-    """The data set of (cloth, excitation, R, seed) with ``num_sequences`` sequences: read
-    from ``directory`` when there, else simulated and written there (atomically)."""
-    path = dataset_path(directory, parameters, excitation, range_deg, seed, num_sequences)
+def load_or_generate(directory: Path, key: DatasetKey) -> tuple[ClothDataset, Path]:
+    """The data set ``key`` names: read from ``directory`` when there, else simulated and
+    written there (atomically)."""
+    path = key.path(directory)
     if path.exists():
         dataset = ClothDataset.load(path)
-        check_compatible(dataset, parameters, excitation, range_deg, str(path))
+        check_compatible(dataset, key.parameters, key.excitation, key.range_deg, str(path))
         return dataset, path
     log.info(
         "simulating data set R=%g seed=%d (%d sequences) -> %s",
-        range_deg,
-        seed,
-        num_sequences,
-        path,
-    )
+        key.range_deg, key.seed, key.num_sequences, path,
+    )  # fmt: skip
     dataset = generate(
-        ClothSimulation(parameters), excitation, range_deg, seed, range(num_sequences)
-    )
+        ClothSimulation(key.parameters), key.excitation, key.range_deg, key.seed,
+        range(key.num_sequences),
+    )  # fmt: skip
     dataset.save(path)
     return dataset, path
 
