@@ -33,6 +33,7 @@ from mcpilco.cloth.dataset import read_csv_sequences
 from mcpilco.cloth.store import DatasetKey, check_compatible, load_or_generate
 from mcpilco.errors import ConfigError
 from mcpilco.latent import CGPDM
+from mcpilco.latent.evaluation import point_distance_per_step
 from mcpilco.latent.study import check_sizes, evaluate, score, split, train, training_data
 from mcpilco.latent.training import CGPDMTraining
 from mcpilco.run_storage import RunDirectory, load_tensors
@@ -45,14 +46,6 @@ from runners.options import rerun_mode
 
 CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.cgpdm")
-
-
-def check_latent_dim(latent_dim: int, observation_dim: int) -> None:
-    if latent_dim >= observation_dim:
-        raise ConfigError(
-            f"cgpdm.latent_dim={latent_dim} must be below the observation "
-            f"dimension D={observation_dim}"
-        )
 
 
 def load_dataset(cfg: DictConfig, cloth: ClothParameters, excitation: Excitation) -> ClothDataset:
@@ -87,7 +80,7 @@ def train_and_evaluate(cfg: DictConfig) -> None:
         raise ConfigError(f"data.range_deg={cfg.data.range_deg!r} must be in (0, 360]")
     if cfg.data.csv_dir is None and cfg.data.path is None:  # checked before simulating
         check_sizes(cfg.data.num_sequences, cfg.data.num_test, cfg.data.num_train)
-        check_latent_dim(model.latent_dim, ClothSimulation.observation_dim)
+        model.check_observation_dim(ClothSimulation.observation_dim)
     run_dir = Path(HydraConfig.get().runtime.output_dir)
     storage = RunDirectory(run_dir)
     with storage.locked():
@@ -97,7 +90,7 @@ def train_and_evaluate(cfg: DictConfig) -> None:
             return
         dataset = load_dataset(cfg, cloth, excitation)
         train_rows, test_rows = split(dataset, cfg.data.num_test, cfg.data.num_train, cfg.seed)
-        check_latent_dim(model.latent_dim, dataset.observations.shape[-1])
+        model.check_observation_dim(dataset.observations.shape[-1])
         training, test = dataset.subset(train_rows), dataset.subset(test_rows)
         config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
         storage.write_text("config.yaml", config_yaml)
@@ -202,11 +195,10 @@ def log_test_sequences(
     for observer in observers:
         observer.run_started(run_metadata(config_yaml, cfg.seed, "cpu", "float64"), -1)
     dt = float(cfg.cloth.sample_dt)
+    distances = point_distance_per_step(test.observations, predicted)  # [S, N] m
     try:
         for k in range(len(test.indices)):
-            distance = np.linalg.norm(
-                (test.observations[k] - predicted[k]).reshape(len(predicted[k]), -1, 3), axis=-1
-            ).mean(-1)
+            distance = distances[k]
             row = {
                 "trial": k,
                 "sequence": int(test.indices[k]),

@@ -34,6 +34,14 @@ class Excitation:
     frequency_range: tuple[float, float] = (0.3, 0.6)
     num_samples: int = 60
 
+    def facts(self) -> dict[str, Any]:
+        """What a data set records of its excitation (and is compared against)."""
+        return {
+            "amplitude": float(self.amplitude),
+            "frequency_range": [float(f) for f in self.frequency_range],
+            "num_samples": int(self.num_samples),
+        }
+
     def draw(self, rng: np.random.Generator, range_deg: float) -> dict[str, float]:
         """γ ~ U(−R/2, R/2) deg and f_Y, f_Z ~ U(frequency_range)."""
         low, high = self.frequency_range
@@ -148,11 +156,7 @@ def generate(
         "range_deg": float(range_deg),
         "seed": int(seed),
         "cloth": simulation.parameters.fingerprint(),
-        "excitation": {
-            "amplitude": excitation.amplitude,
-            "frequency_range": list(excitation.frequency_range),
-            "num_samples": excitation.num_samples,
-        },
+        "excitation": excitation.facts(),
         "draws": dict(zip([str(i) for i in indices], draws, strict=True)),
     }
     return ClothDataset(

@@ -7,7 +7,6 @@ import json
 import logging
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -16,14 +15,6 @@ from mcpilco.cloth.simulation import ClothParameters, ClothSimulation
 from mcpilco.errors import ConfigError
 
 log = logging.getLogger(__name__)
-
-
-def excitation_facts(excitation: Excitation) -> dict[str, Any]:
-    return {
-        "amplitude": float(excitation.amplitude),
-        "frequency_range": [float(f) for f in excitation.frequency_range],
-        "num_samples": int(excitation.num_samples),
-    }
 
 
 @dataclass(frozen=True)
@@ -41,7 +32,7 @@ class DatasetKey:
         """``directory/R<R>_seed<seed>_<hash of cloth, excitation and size>.npz``."""
         facts = {
             "cloth": self.parameters.fingerprint(),
-            "excitation": excitation_facts(self.excitation),
+            "excitation": self.excitation.facts(),
             "num_sequences": self.num_sequences,
         }
         digest = hashlib.sha256(json.dumps(facts, sort_keys=True).encode()).hexdigest()[:10]
@@ -62,7 +53,7 @@ def check_compatible(
         return  # read from CSV: nothing to compare
     expected = {
         **{f"cloth.{k}": v for k, v in parameters.fingerprint().items()},
-        **{f"excitation.{k}": v for k, v in excitation_facts(excitation).items()},
+        **{f"excitation.{k}": v for k, v in excitation.facts().items()},
         "data.range_deg": float(range_deg),
     }
     found = {

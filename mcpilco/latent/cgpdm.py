@@ -117,11 +117,7 @@ class CGPDM(nn.Module):
                 f"controls {tuple(controls.shape)} do not match observations "
                 f"{tuple(observations.shape)} (want [P, N-1, E])"
             )
-        if self.latent_dim >= dim:
-            raise ConfigError(
-                f"cgpdm.latent_dim={self.latent_dim} must be below the observation "
-                f"dimension D={dim}"
-            )
+        self.check_observation_dim(dim)
         flat = observations.reshape(p * n, dim)
         mean = flat.mean(0) if self.center_observations else torch.zeros_like(flat[0])
         self.register_buffer("observation_mean", mean)
@@ -161,6 +157,14 @@ class CGPDM(nn.Module):
         self.to(observations.device)  # kernels and scales join the data's device
         self._posterior = None
 
+    def check_observation_dim(self, observation_dim: int) -> None:
+        """One-line :class:`ConfigError` unless d < D (before any data are simulated)."""
+        if self.latent_dim >= observation_dim:
+            raise ConfigError(
+                f"cgpdm.latent_dim={self.latent_dim} must be below the observation "
+                f"dimension D={observation_dim}"
+            )
+
     @property
     def observation_dim(self) -> int:
         return int(self.moving.numel())
@@ -195,18 +199,23 @@ class CGPDM(nn.Module):
         log_det = 2.0 * torch.log(torch.diagonal(factor)).sum()
         return 0.5 * outputs * log_det + 0.5 * whitened.square().sum() - n * log_scale.sum()
 
-    def loss_terms(self) -> tuple[torch.Tensor, torch.Tensor]:
-        """(L_y, L_x) of eq. 6.11."""
+    def _factors(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
+        """Cholesky factors of K_y(X) and K_x(X̃), with the dynamics pairs (X̃, Δ)."""
         latent_factor = cholesky_with_jitter(
             self._gram(self.latent_kernel, self.latent_states, self.log_latent_noise),
             "CGPDM latent map",
         )
-        latent = self._term(latent_factor, self.centred, self.log_latent_scale)
         inputs, targets = self.dynamics_pairs()
         dynamics_factor = cholesky_with_jitter(
             self._gram(self.dynamics_kernel, inputs, self.log_dynamics_noise),
             "CGPDM latent dynamics",
         )
+        return latent_factor, dynamics_factor, inputs, targets
+
+    def loss_terms(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """(L_y, L_x) of eq. 6.11."""
+        latent_factor, dynamics_factor, _, targets = self._factors()
+        latent = self._term(latent_factor, self.centred, self.log_latent_scale)
         dynamics = self._term(dynamics_factor, targets, self.log_dynamics_scale)
         return latent, dynamics
 
@@ -219,15 +228,7 @@ class CGPDM(nn.Module):
     def precompute(self) -> None:
         """Cache K⁻¹ Y and K⁻¹ Δ factors for prediction (after training)."""
         with torch.no_grad():
-            inputs, targets = self.dynamics_pairs()
-            latent_factor = cholesky_with_jitter(
-                self._gram(self.latent_kernel, self.latent_states, self.log_latent_noise),
-                "CGPDM latent map",
-            )
-            dynamics_factor = cholesky_with_jitter(
-                self._gram(self.dynamics_kernel, inputs, self.log_dynamics_noise),
-                "CGPDM latent dynamics",
-            )
+            latent_factor, dynamics_factor, inputs, targets = self._factors()
             self._posterior = _Posterior(
                 latent_inputs=self.latent_states.detach().clone(),
                 latent_factor=latent_factor,

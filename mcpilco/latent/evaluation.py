@@ -5,19 +5,24 @@ from __future__ import annotations
 import numpy as np
 
 
-def point_distance(true: np.ndarray, predicted: np.ndarray) -> np.ndarray:
-    """Eq. 6.13: the mean over time and over the P mesh points of the Euclidean distance
-    between true and predicted points.
+def point_distance_per_step(true: np.ndarray, predicted: np.ndarray) -> np.ndarray:
+    """The mean over the P mesh points of the Euclidean distance between true and predicted
+    points, per time step.
 
     Args:
         true, predicted: ``[S, N, 3P]`` (x₁ y₁ z₁ x₂ … per row, m).
     Returns:
-        e ``[S]`` (m), one per sequence.
+        ``[S, N]`` (m).
     """
     if true.shape != predicted.shape or true.shape[-1] % 3:
         raise ValueError(f"shapes {true.shape} and {predicted.shape} must agree, [S, N, 3P]")
     difference = (true - predicted).reshape(*true.shape[:-1], -1, 3)
-    return np.linalg.norm(difference, axis=-1).mean(axis=(-1, -2))
+    return np.linalg.norm(difference, axis=-1).mean(axis=-1)
+
+
+def point_distance(true: np.ndarray, predicted: np.ndarray) -> np.ndarray:
+    """Eq. 6.13: :func:`point_distance_per_step` averaged over time, ``[S]`` (m)."""
+    return point_distance_per_step(true, predicted).mean(axis=-1)
 
 
 def still_baseline(true: np.ndarray) -> np.ndarray:
