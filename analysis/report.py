@@ -10,6 +10,9 @@
   sub-optimal swing-up costs measured from the sweep's successes (:mod:`analysis.swing_up`);
 * ``precision.md`` / ``.csv``: Table 2.2 — mean ± std distance from the target over the
   last second of the successful runs at the last trial;
+* ``calibration.md`` / ``.csv`` / ``.png``: per trial, the share of real steps inside the
+  final policy's particles' 95 % band and the Gaussian NLL (:mod:`analysis.calibration_report`);
+* ``timing.md`` / ``.csv``: mean seconds of GP fit and policy search per trial;
 * ``prediction_errors.png`` / ``.svg`` / ``.csv``: box plots (Fig. 4.2) and quartiles of the
   absolute one-step prediction errors of each run's last model on its last trial's data
   (:mod:`analysis.prediction_errors`);
@@ -34,6 +37,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 from omegaconf import OmegaConf  # noqa: E402
 
+from analysis.calibration_report import (  # noqa: E402
+    calibration_figure,
+    calibration_markdown,
+    calibration_table,
+    timing_markdown,
+    timing_table,
+)
 from analysis.prediction_errors import prediction_error_figure, prediction_errors  # noqa: E402
 from analysis.swing_up import ReferenceCost, reference_costs  # noqa: E402
 from analysis.thesis import (  # noqa: E402
@@ -237,6 +247,20 @@ def write_report(paths: Sequence[Path], out: Path, command: str) -> dict[str, Pa
         figures = cumulative_cost_figure(trials, out, references)
     else:
         sections.append("- no cumulative-cost figure: the system reports no evaluation cost")
+    if "coverage_mean" in trials.columns and trials["coverage_mean"].notna().any():
+        table = calibration_table(trials)
+        table.to_csv(out / "calibration.csv", index=False)
+        (out / "calibration.md").write_text(calibration_markdown(table))
+        figures += calibration_figure(trials, out)
+        sections.append(
+            "- [model calibration per trial](calibration.md) ([csv](calibration.csv)): real "
+            "steps inside the particles' 95 % band, Gaussian NLL"
+        )
+    if "optimization_seconds" in trials.columns:
+        timing = timing_table(trials)
+        timing.to_csv(out / "timing.csv", index=False)
+        (out / "timing.md").write_text(timing_markdown(timing))
+        sections.append("- [seconds per trial: GP fit and policy search](timing.md)")
     errors = prediction_errors(trials)
     if not errors.empty:
         figures += prediction_error_figure(errors, out)

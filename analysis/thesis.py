@@ -17,6 +17,8 @@ SUCCESS_RATES: dict[str, list[float]] = {
     "DF m_q=1 m_u=1, SE, dropout, l=(3,1)": [0, 8, 52, 86, 96],
     "DF m_q=2 m_u=1, SE, dropout, l=(3,1)": [0, 20, 73, 93, 100],
     "PMS S.I., SE, dropout, l=(3,1)": [0, 14, 82, 98, 96],
+    "PILCO": [2, 4, 20, 36, 42],  # Fig. 2.8
+    "Black-DROPS": [0, 4, 30, 68, 86],
 }
 
 PRECISION: dict[str, tuple[float, float, float, float]] = {
@@ -28,6 +30,8 @@ PRECISION: dict[str, tuple[float, float, float, float]] = {
     "S.I., SE, no dropout, l=(0.75,0.25)": (0.016, 0.009, 0.012, 0.008),
     "S.I., SE, no dropout, l=(3,1)": (0.019, 0.014, 0.015, 0.009),
     "F.S., SE, dropout, l=(3,1)": (0.011, 0.005, 0.011, 0.005),
+    "Black-DROPS": (0.025, 0.011, 0.033, 0.019),
+    "PILCO": (0.027, 0.012, 0.045, 0.019),
 }
 
 INVERSE_DYNAMICS_NMSE: dict[str, list[float]] = {
@@ -43,6 +47,9 @@ REAL_CLOTH_ERRORS: dict[int, tuple[float, float]] = {
     30: (0.012, 0.005),
     60: (0.015, 0.006),
 }
+
+SEARCH_NAMES = {"PilcoSearch": "PILCO", "BlackDropsSearch": "Black-DROPS"}
+"""Policy searches other than MC-PILCO's, named as the thesis's comparison rows."""
 
 MODEL_NAMES = {"SpeedIntegration": "S.I.", "FullState": "F.S.", "DerivativeFree": "DF"}
 KERNEL_NAMES = {
@@ -92,6 +99,12 @@ def thesis_label(label: str) -> str:
 
 
 def _configuration(config: dict[str, Any]) -> str:
+    search = str(config["optimizer"]["_target_"]).rsplit(".", 1)[-1]
+    if search in SEARCH_NAMES:  # PILCO / Black-DROPS: their recipe's model, kernel and cost
+        name = SEARCH_NAMES[search]
+        if config["optimizer"].get("initialisation", "pilco") == "policy":
+            name += " (policy-group init)"
+        return name
     model = config["model"]
     target = str(model["_target_"]).rsplit(".", 1)[-1]
     name = MODEL_NAMES.get(target, target)

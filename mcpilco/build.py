@@ -15,6 +15,7 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig
 
 from mcpilco.errors import ConfigError
+from mcpilco.optim.rollout import ParticleRollout
 from mcpilco.safe_config import check_targets
 from mcpilco.seeding import RandomStreams
 from mcpilco.systems.base import MechanicalSystem
@@ -132,4 +133,14 @@ def build(cfg: DictConfig) -> Experiment:
         compile=bool(cfg.get("compile", False)),
     )
     components.exploration(rng=np.random.default_rng(0))  # its errors too, before any work
+    components.optimizer.check(  # the search refuses components it cannot work with
+        ParticleRollout.for_system(
+            system,
+            components.model,
+            components.policy,
+            components.cost,
+            estimator,
+            components.simulate_estimator,
+        )
+    )
     return Experiment(components, streams, cfg.num_trials, dtype, device)

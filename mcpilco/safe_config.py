@@ -49,7 +49,7 @@ def extension_points() -> tuple[type, ...]:
     from mcpilco.kernels.base import Kernel
     from mcpilco.latent.cgpdm import CGPDM
     from mcpilco.models.base import ModelStructure
-    from mcpilco.optim.policy_optimizer import PolicyOptimizer
+    from mcpilco.optim.base import PolicySearch
     from mcpilco.policies.exploration import ExplorationController
     from mcpilco.policies.rbf import SquashedRBFPolicy
     from mcpilco.systems.base import MechanicalSystem
@@ -65,7 +65,7 @@ def extension_points() -> tuple[type, ...]:
         Cost,
         SquashedRBFPolicy,
         ExplorationController,
-        PolicyOptimizer,
+        PolicySearch,
         TrialObserver,
         TorqueControlledRobot,
         TrackingController,

@@ -13,11 +13,13 @@ import pandas as pd
 import torch
 from torch import nn
 
+from mcpilco.calibration import calibration
 from mcpilco.controller import PolicyController
 from mcpilco.errors import NonFiniteError, NotPositiveDefiniteError, SimulationError
 from mcpilco.estimators.base import StateEstimator
 from mcpilco.models.base import ModelStructure
-from mcpilco.optim.policy_optimizer import PolicyOptimizer, StepInfo, frozen
+from mcpilco.optim.base import PolicySearch, StepInfo
+from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
 from mcpilco.policies.rbf import SquashedRBFPolicy
 from mcpilco.run_storage import RunDirectory
@@ -42,7 +44,7 @@ class Components:
     policy: SquashedRBFPolicy
     cost: nn.Module
     estimator: StateEstimator
-    optimizer: PolicyOptimizer
+    optimizer: PolicySearch
     exploration: ExplorationFactory
     simulate_estimator: bool = True
     compile: bool = False
@@ -136,12 +138,13 @@ class TrialLoop:
             start = time.perf_counter()
             for observer in self.observers:
                 observer.optimized(trial, trace)
-            self._report_particles(trial)
+            predicted = self._predict_particles(trial)
             logging_seconds = time.perf_counter() - start
             start = time.perf_counter()
             controller = PolicyController(self.c.policy, self.c.model, self.c.estimator)
             trajectory = self._interact(controller, trial)
             rollout_seconds = time.perf_counter() - start
+            figures = calibration(predicted, trajectory.states, self.c.system.state_names)
             self.storage.save_checkpoint(trial, "policy", self.c.policy.state_dict())
             self.storage.save_checkpoint(trial, "model", self.c.model.checkpoint())
             row = {
@@ -155,6 +158,7 @@ class TrialLoop:
                 "policy_restarts": result.restarts,
                 "rollout_seconds": rollout_seconds,
                 "logging_seconds": logging_seconds,
+                **figures,
             }
             table = self._record(trial, trajectory, row)
             if on_trial is not None:
@@ -209,17 +213,17 @@ class TrialLoop:
             observer.model_fitted(trial, hyperparameters)
         return report
 
-    def _report_particles(self, trial: int) -> None:
-        """Simulate the final (deterministic) policy's particles for the observers."""
-        wanting = [o for o in self.observers if o.wants_particles]
-        if not wanting:
-            return
+    def _predict_particles(self, trial: int) -> np.ndarray:
+        """Simulate the final (deterministic) policy's particles ``[T+1, M, d_x]`` on the
+        model, for the observers and the trial's calibration figures."""
         with torch.no_grad(), frozen(self.c.model):
             result = self.rollout(self.c.optimizer.num_particles, 0.0, self.streams.reporting)
             costs = self.c.cost(result.states)
         states, costs_np = result.states.cpu().numpy(), costs.cpu().numpy()
-        for observer in wanting:
-            observer.particles_predicted(trial, states, costs_np, self.c.system.dt)
+        for observer in self.observers:
+            if observer.wants_particles:
+                observer.particles_predicted(trial, states, costs_np, self.c.system.dt)
+        return states
 
     def _no_finite_step(self, trial: int, restarts: int) -> None:
         """The optimiser never saw a finite Ĵ: stop, naming where the particles (of the

@@ -29,7 +29,7 @@ GROUPS = sorted(
     p.name
     for p in CONFIG_DIR.iterdir()
     if p.is_dir()
-    and p.name not in ("experiment", "hydra")
+    and p.name not in ("experiment", "hydra", "budget")  # budget: derived (protocol, algorithm)
     and (p.name not in CONTROL_ONLY or CONTROL_ONLY[p.name] is not None)
 )
 EXPERIMENTS = sorted(
@@ -54,7 +54,7 @@ def test_every_group_is_known() -> None:
     assert all(options(group) for group in GROUPS)  # no empty group silently empties the product
 
 
-INDEPENDENT = ("cost", "exploration", "optimizer", "protocol")
+INDEPENDENT = ("algorithm", "cost", "exploration", "optimizer", "protocol")
 """Groups whose options read nothing but the system (state size, u_max, dt): each option is
 built with every system; all other groups are crossed in full."""
 COUPLED = [g for g in GROUPS if g not in INDEPENDENT]
@@ -81,6 +81,10 @@ def refusal(chosen: dict[str, str]) -> str | None:
         return "needs a tracking task"
     if chosen.get("exploration") == "pd" and not tracking:
         return "needs a tracking task"
+    if chosen.get("optimizer") == "pilco":  # alone, without algorithm=pilco's model
+        return "algorithm=pilco needs model=full_state"
+    if chosen.get("algorithm") == "pilco":  # every system's default cost is a particle cost
+        return "closed-form Gaussian expectation"
     return None
 
 

@@ -2,6 +2,7 @@
 
 from mcpilco.costs.base import Cost
 from mcpilco.costs.composite import CostSum, LogisticBarrier
+from mcpilco.costs.quadratic import SaturatingQuadratic
 from mcpilco.costs.saturating import DistanceTerm, SaturatingDistance
 from mcpilco.costs.tracking import TrackingCost
 
@@ -11,5 +12,6 @@ __all__ = [
     "DistanceTerm",
     "LogisticBarrier",
     "SaturatingDistance",
+    "SaturatingQuadratic",
     "TrackingCost",
 ]

@@ -104,6 +104,11 @@ class ExactGP(nn.Module):
             self.kernel.prepare(self.train_inputs), solve_matrix(inverse_gram, alpha)
         )
 
+    def posterior_weights(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """Γ⁻¹ ``[G, N, N]`` and α = Γ⁻¹ y ``[G, N]`` of the fitted GP (no gradient)."""
+        solve = self._prediction_cache().solve
+        return solve[..., :-1], solve[..., -1]
+
     def predict(self, inputs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Posterior of the latent function at ``inputs [M, D]``.
 

@@ -6,45 +6,16 @@ import logging
 import math
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, field
 
 import torch
 from torch import nn
 
 from mcpilco.errors import ConfigError
+from mcpilco.optim.base import OptimizationResult, PolicySearch, StepInfo
 from mcpilco.optim.monitor import MonitoringSchedule
 from mcpilco.optim.rollout import ParticleRollout
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class StepInfo:
-    """One optimisation step, for progress bars and logs (``horizon``: the rollout's length in
-    steps, shorter than the trial in the early stages of a horizon curriculum)."""
-
-    step: int
-    cost: float
-    dropout: float
-    learning_rate: float
-    signal: float
-    horizon: int
-
-
-@dataclass
-class OptimizationResult:
-    """Trace of a policy optimisation: one entry per step."""
-
-    costs: list[float] = field(default_factory=list)
-    dropouts: list[float] = field(default_factory=list)
-    learning_rates: list[float] = field(default_factory=list)
-    signals: list[float] = field(default_factory=list)
-    horizons: list[int] = field(default_factory=list)
-    restarts: int = 0
-
-    @property
-    def steps(self) -> int:
-        return len(self.costs)
 
 
 @contextmanager
@@ -60,7 +31,7 @@ def frozen(module: nn.Module) -> Iterator[None]:
             parameter.requires_grad_(flag)
 
 
-class PolicyOptimizer:
+class PolicyOptimizer(PolicySearch):
     """Optimises a policy on M particles simulated with the learned model.
 
     Args:
@@ -206,11 +177,7 @@ class PolicyOptimizer:
                     event.signal,
                     rollout.horizon,
                 )
-                result.costs.append(cost)
-                result.dropouts.append(dropout)
-                result.learning_rates.append(schedule.learning_rate)
-                result.signals.append(event.signal)
-                result.horizons.append(rollout.horizon)
+                result.append(info)
                 if on_step is not None:
                     on_step(info)
                 if event.stop:

@@ -120,10 +120,21 @@ class ParticleRollout:
         )
 
     def __call__(
-        self, num_particles: int, dropout: float, generator: torch.Generator | None
+        self,
+        num_particles: int,
+        dropout: float,
+        generator: torch.Generator | None,
+        act: Callable[..., torch.Tensor] | None = None,
+        copies: int = 1,
     ) -> RolloutResult:
+        """Simulate ``num_particles`` particles (``copies`` × that many with ``copies`` > 1:
+        the same random numbers repeated for each copy, block after block, e.g. one block
+        per candidate policy of a population, which ``act`` then tells apart; dropout is
+        not allowed then). ``act``: the policy's ``prepare(dropout)`` unless given."""
         like = {"dtype": self.initial_mean.dtype, "device": self.initial_mean.device}
         dim = self.initial_mean.shape[0]
+        if copies > 1 and dropout > 0:
+            raise ValueError("a rollout with copies > 1 takes no dropout")
         start = torch.randn(num_particles, dim, generator=generator, **like)
         noise = torch.randn(
             self.horizon, self.model.num_outputs, num_particles, generator=generator, **like
@@ -134,7 +145,16 @@ class ParticleRollout:
             else None
         )
         readings = self._reading_noise(num_particles, generator, like)
-        act = self.policy.prepare(dropout)
+        if copies > 1:
+            start, noise = start.repeat(copies, 1), noise.repeat(1, 1, copies)
+            if readings is not None:
+                gaussian, uniform = readings
+                readings = (
+                    gaussian.repeat(1, copies, 1),
+                    None if uniform is None else uniform.repeat(1, copies, 1),
+                )
+            num_particles *= copies
+        act = self.policy.prepare(dropout) if act is None else act
         particles = self.model.initial_particles(self.initial_states(start))
         states = [self.model.physical_state(particles)]
         memory = self.estimator.online_reset(num_particles, particles)

@@ -11,8 +11,11 @@ from torch import nn
 from torch.autograd.function import once_differentiable
 
 from mcpilco.errors import ConfigError
+from mcpilco.moments.rbf import rbf_moments
+from mcpilco.moments.trig import sine_saturate, sine_saturation
 
 ANGLE_CENTRES = ("uniform", "circle")
+SQUASHES = ("tanh", "sine")
 
 
 class _SquashedRBF(torch.autograd.Function):
@@ -125,6 +128,9 @@ class SquashedRBFPolicy(nn.Module):
         angle_columns: (sin column, cos column) pairs of the input (the model structure
             passes them; ignored with ``angle_centres="uniform"``).
         generator: source of the random initialisation.
+        squash: ``tanh`` (the thesis's) or ``sine``, PILCO's saturation
+            u_max (9 sin z + sin 3z)/8 of z = Σ_i w_i φ_i(x)/u_max, whose moments under a
+            Gaussian z are closed-form (``algorithm=pilco`` needs it).
     """
 
     def __init__(
@@ -138,8 +144,12 @@ class SquashedRBFPolicy(nn.Module):
         angle_centres: str = "uniform",
         angle_columns: Sequence[tuple[int, int]] = (),
         generator: torch.Generator | None = None,
+        squash: str = "tanh",
     ) -> None:
         super().__init__()
+        if squash not in SQUASHES:
+            raise ConfigError(f"policy.squash must be one of {list(SQUASHES)}, got {squash!r}")
+        self.squash = squash
         if angle_centres not in ANGLE_CENTRES:
             raise ConfigError(
                 f"policy.angle_centres must be one of {list(ANGLE_CENTRES)}, got {angle_centres!r}"
@@ -230,6 +240,17 @@ class SquashedRBFPolicy(nn.Module):
         weights = self.weights / (self.u_max * (1.0 - threshold / 256))
         below = torch.tensor(threshold - 1, dtype=weights.dtype, device=weights.device)
         u_max, masked = self.u_max, threshold > 0  # no int in the closure: one graph
+        if self.squash == "sine":
+
+            def act_sine(inputs: torch.Tensor, bits: torch.Tensor | None = None) -> torch.Tensor:
+                z = inputs * inverse  # plain autograd ops: the tanh path's backward is fused
+                exponent = z @ twice_centres_t + centre_offset - z.square().sum(-1, keepdim=True)
+                activations = exponent.exp()
+                if masked and bits is not None:
+                    activations = activations * bits.to(z.dtype).sub(below).clamp(0.0, 1.0)
+                return sine_saturate(activations @ weights, u_max)
+
+            return act_sine
 
         def act(inputs: torch.Tensor, bits: torch.Tensor | None = None) -> torch.Tensor:
             return _SquashedRBF.apply(
@@ -242,6 +263,59 @@ class SquashedRBFPolicy(nn.Module):
                 below,
                 u_max,
             )
+
+        return act
+
+    def gaussian_moments(
+        self, mean: torch.Tensor, cov: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """Moments of the actions for a Gaussian input N(mean ``[d_π]``, cov ``[d_π, d_π]``)
+        (``squash="sine"`` only): mean ``[d_u]``, covariance ``[d_u, d_u]`` and ``factor``
+        ``[d_π, d_u]`` with Cov(input, u) = cov · factor. Exact: the network before its
+        squash is an RBF expansion z(x) = Σ_i β_i exp(−½ (x − c_i)ᵀ Λ⁻¹ (x − c_i)) with
+        Λ⁻¹ = 2/ℓ², β = wᵀ/u_max, and the sine saturation has closed-form moments."""
+        if self.squash != "sine":
+            raise ConfigError(
+                f"policy.squash={self.squash!r} has no closed-form moments; use policy.squash=sine"
+            )
+        inverse_lambda = 2.0 * torch.exp(-2.0 * self.log_lengthscale)
+        outputs = self.weights.shape[1]
+        z_mean, z_cov, z_factor = rbf_moments(
+            self.centres,
+            self.weights.T / self.u_max,
+            inverse_lambda.expand(outputs, -1),
+            torch.ones(outputs, dtype=mean.dtype, device=mean.device),
+            mean,
+            cov,
+        )
+        u_mean, u_cov, u_factor = sine_saturation(z_mean, z_cov, self.u_max)
+        return u_mean, u_cov, z_factor @ u_factor
+
+    def population_act(self, vectors: torch.Tensor) -> Callable[..., torch.Tensor]:
+        """``act(inputs [P·M, d_π], bits=None) ↦ actions [P·M, d_u]`` for P parameter vectors
+        ``[P, n_params]`` (laid out as ``parameters_to_vector(self.parameters())``: centres,
+        log length-scales, weights): block p of M inputs goes through policy p. No dropout;
+        no gradient needed (gradient-free search)."""
+        count = vectors.shape[0]
+        sizes = [p.numel() for p in self.parameters()]
+        centres, log_lengthscale, weights = torch.split(vectors, sizes, dim=1)
+        dim, outputs = self.centres.shape[1], self.weights.shape[1]
+        inverse = torch.exp(-log_lengthscale)[:, None, :]  # [P, 1, d]
+        scaled = centres.view(count, self.num_basis, dim) * inverse  # [P, n_b, d]
+        twice_t = 2.0 * scaled.transpose(1, 2)  # [P, d, n_b]
+        offset = scaled.square().sum(-1)[:, None, :]  # [P, 1, n_b]
+        scaled_weights = weights.view(count, self.num_basis, outputs) / self.u_max
+        u_max, squash = self.u_max, self.squash
+
+        def act(inputs: torch.Tensor, bits: torch.Tensor | None = None) -> torch.Tensor:
+            z = inputs.view(count, -1, dim) * inverse  # [P, M, d]
+            exponent = torch.bmm(z, twice_t) - offset - z.square().sum(-1, keepdim=True)
+            hidden = torch.bmm(exponent.exp(), scaled_weights)  # [P, M, d_u]
+            if squash == "sine":
+                actions = sine_saturate(hidden, u_max)
+            else:
+                actions = torch.tanh(hidden) * u_max
+            return actions.reshape(-1, outputs)
 
         return act
 

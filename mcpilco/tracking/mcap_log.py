@@ -9,6 +9,7 @@ file whose finished trials read back whole (:func:`mcpilco.tracking.read_run_log
 from __future__ import annotations
 
 import logging
+import math
 import os
 import time
 from collections.abc import Mapping
@@ -197,6 +198,17 @@ class McapLogger(TrialObserver):
                 fit_seconds=number("fit_seconds"),
                 optimization_seconds=number("optimization_seconds"),
                 gp_samples=int(number("gp_samples")),
+                # calibration (learning trials only): NaN / empty on the exploration trial
+                coverage_mean=float(summary.get("coverage_mean", math.nan)),
+                nll_mean=float(summary.get("nll_mean", math.nan)),
+                coverage=[
+                    float(v)
+                    for k, v in summary.items()
+                    if k.startswith("coverage_") and k != "coverage_mean"
+                ],
+                nll=[
+                    float(v) for k, v in summary.items() if k.startswith("nll_") and k != "nll_mean"
+                ],
             ),
         )
         assert self._writer is not None

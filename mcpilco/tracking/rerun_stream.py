@@ -128,7 +128,14 @@ class RerunStreamer(TrialObserver):
                 rrb.Horizontal(rrb.Grid(*plots), rrb.Vertical(*side), name=f"trial {trial}")
             )
         optimization = rrb.TimeSeriesView(name="optimisation", origin="/optimization")
-        return rrb.Blueprint(rrb.Vertical(rrb.Tabs(*tabs), optimization, row_shares=[3, 1]))
+        calibration = rrb.TimeSeriesView(name="calibration per trial", origin="/calibration")
+        return rrb.Blueprint(
+            rrb.Vertical(
+                rrb.Tabs(*tabs),
+                rrb.Horizontal(optimization, calibration, column_shares=[2, 1]),
+                row_shares=[3, 1],
+            )
+        )
 
     def optimized(self, trial: int, trace: Mapping[str, list[float]]) -> None:
         steps = np.arange(len(trace["cost"])) + self._optimization_steps
@@ -145,6 +152,15 @@ class RerunStreamer(TrialObserver):
             )
 
     def trial_finished(self, trial: int, summary: Mapping[str, Any]) -> None:
+        """The trial's calibration figures (learning trials) on the ``trial`` timeline."""
+        self.recording.set_time("trial", sequence=trial)
+        for group in ("coverage", "nll"):
+            keys = [k for k in summary if k.startswith(f"{group}_") and k != f"{group}_mean"]
+            for i, key in enumerate(keys):  # components in state order: x0, x1, ...
+                self.recording.log(f"calibration/{group}/x{i}", rr.Scalars(float(summary[key])))
+            if f"{group}_mean" in summary:
+                value = float(summary[f"{group}_mean"])
+                self.recording.log(f"calibration/{group}/mean", rr.Scalars(value))
         self.recording.flush()
 
     def close(self) -> None:

@@ -60,6 +60,10 @@ MESSAGES: dict[str, list[tuple[str, int, bool]]] = {
         ("fit_seconds", _T.TYPE_DOUBLE, False),
         ("optimization_seconds", _T.TYPE_DOUBLE, False),
         ("gp_samples", _T.TYPE_INT32, False),
+        ("coverage_mean", _T.TYPE_DOUBLE, False),
+        ("nll_mean", _T.TYPE_DOUBLE, False),
+        ("coverage", _T.TYPE_DOUBLE, True),  # per state component (calibration.py)
+        ("nll", _T.TYPE_DOUBLE, True),
     ],
 }
 
