@@ -109,3 +109,33 @@ def test_calibration_of_a_synthetic_case_with_known_coverage(spread: float) -> N
 def test_calibration_rejects_mismatched_shapes() -> None:
     with pytest.raises(ValueError, match="components"):
         calibration(np.zeros((5, 10, 3)), np.zeros((5, 2)))
+
+
+def test_report_names_and_calibrates_the_comparison_rows() -> None:
+    import pandas as pd
+
+    from analysis.calibration_report import calibration_table, timing_table
+    from analysis.thesis import PRECISION, SUCCESS_RATES, configuration_label
+
+    base = {"system": {"_target_": "mcpilco.systems.CartPole"}, "protocol": {"name": "quick"}}
+    pilco = {**base, "optimizer": {"_target_": "mcpilco.optim.PilcoSearch"}}
+    cma = {**base, "optimizer": {"_target_": "mcpilco.optim.BlackDropsSearch"}}
+    assert configuration_label(pilco) == "PILCO [quick]"
+    assert configuration_label(cma) == "Black-DROPS [quick]"
+    assert SUCCESS_RATES["PILCO"][-1] == 42 and PRECISION["Black-DROPS"][0] == 0.025
+    trials = pd.DataFrame(
+        {
+            "configuration": ["A"] * 4,
+            "trial": [0, 1, 1, 1],
+            "coverage_mean": [float("nan"), 0.9, 0.5, 0.7],
+            "coverage_p": [float("nan"), 1.0, 0.4, 0.8],
+            "nll_mean": [float("nan"), 1.0, 3.0, 2.0],
+            "fit_seconds": [float("nan"), 1.0, 2.0, 3.0],
+            "optimization_seconds": [float("nan"), 10.0, 20.0, 30.0],
+        }
+    )
+    table = calibration_table(trials).iloc[0]
+    assert (table["runs"], table["coverage_median"], table["nll_median"]) == (3, 0.7, 2.0)
+    assert table["coverage_p_median"] == 0.8
+    timing = timing_table(trials).iloc[0]
+    assert (timing["fit_seconds"], timing["optimization_seconds"]) == (2.0, 20.0)
