@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING
 
 import torch
 
+from mcpilco.errors import ConfigError
+
 if TYPE_CHECKING:
     from mcpilco.optim.rollout import ParticleRollout
 
@@ -49,6 +51,14 @@ class OptimizationResult:
         self.learning_rates.append(info.learning_rate)
         self.signals.append(info.signal)
         self.horizons.append(info.horizon)
+
+
+def require_positive_integers(**values: object) -> None:
+    """One-line :class:`ConfigError` naming ``optimizer.<key>`` for the first value that is
+    not a positive integer (config validation shared by the searches)."""
+    for key, value in values.items():
+        if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+            raise ConfigError(f"optimizer.{key} must be a positive integer, got {value!r}")
 
 
 class PolicySearch(ABC):

@@ -14,7 +14,12 @@ import torch
 from torch.nn.utils import parameters_to_vector, vector_to_parameters
 
 from mcpilco.errors import ConfigError
-from mcpilco.optim.base import OptimizationResult, PolicySearch, StepInfo
+from mcpilco.optim.base import (
+    OptimizationResult,
+    PolicySearch,
+    StepInfo,
+    require_positive_integers,
+)
 from mcpilco.optim.rollout import ParticleRollout
 
 log = logging.getLogger(__name__)
@@ -69,9 +74,7 @@ class BlackDropsSearch(PolicySearch):
                     "algorithm=blackdrops (CMA-ES) has none"
                 )
             raise ConfigError(f"optimizer.{key} is not an option of algorithm=blackdrops")
-        for key, value in (("num_particles", num_particles), ("max_evaluations", max_evaluations)):
-            if not isinstance(value, int) or value < 1:
-                raise ConfigError(f"optimizer.{key} must be a positive integer, got {value!r}")
+        require_positive_integers(num_particles=num_particles, max_evaluations=max_evaluations)
         if population is not None and (not isinstance(population, int) or population < 2):
             raise ConfigError(f"optimizer.population must be >= 2 or null, got {population!r}")
         if not sigma > 0:

@@ -14,7 +14,12 @@ from mcpilco.errors import ConfigError
 from mcpilco.kernels.se import SquaredExponential
 from mcpilco.models.full_state import FullState
 from mcpilco.moments.propagation import MomentMatchingRollout, initial_covariance
-from mcpilco.optim.base import OptimizationResult, PolicySearch, StepInfo
+from mcpilco.optim.base import (
+    OptimizationResult,
+    PolicySearch,
+    StepInfo,
+    require_positive_integers,
+)
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
 
@@ -59,20 +64,11 @@ class PilcoSearch(PolicySearch):
                 f"optimizer.initialisation must be pilco or policy, got {initialisation!r}"
             )
         self.initialisation = initialisation
-        for key, value in (
-            ("max_iterations", max_iterations),
-            ("history_size", history_size),
-            ("num_particles", num_particles),
-        ):
-            if not isinstance(value, int) or value < 1:
-                raise ConfigError(f"optimizer.{key} must be a positive integer, got {value!r}")
-        if max_evaluations is not None and (
-            not isinstance(max_evaluations, int) or max_evaluations < 1
-        ):
-            raise ConfigError(
-                f"optimizer.max_evaluations must be a positive integer or null, "
-                f"got {max_evaluations!r}"
-            )
+        require_positive_integers(
+            max_iterations=max_iterations, history_size=history_size, num_particles=num_particles
+        )
+        if max_evaluations is not None:
+            require_positive_integers(max_evaluations=max_evaluations)
         self.max_iterations = max_iterations
         self.max_evaluations = max_evaluations or math.ceil(1.25 * max_iterations)
         self.history_size = history_size

@@ -11,7 +11,12 @@ import torch
 from torch import nn
 
 from mcpilco.errors import ConfigError
-from mcpilco.optim.base import OptimizationResult, PolicySearch, StepInfo
+from mcpilco.optim.base import (
+    OptimizationResult,
+    PolicySearch,
+    StepInfo,
+    require_positive_integers,
+)
 from mcpilco.optim.monitor import MonitoringSchedule
 from mcpilco.optim.rollout import ParticleRollout
 
@@ -68,13 +73,11 @@ class PolicyOptimizer(PolicySearch):
         restart_adam_on_reduction: bool = False,
         horizon_stages: Sequence[float] | None = None,
     ) -> None:
-        for key, value in (
-            ("num_particles", num_particles),
-            ("max_steps", max_steps),
-            ("max_steps_first_trial", max_steps_first_trial),
-        ):
-            if not isinstance(value, int) or value < 1:
-                raise ConfigError(f"optimizer.{key} must be a positive integer, got {value!r}")
+        require_positive_integers(
+            num_particles=num_particles,
+            max_steps=max_steps,
+            max_steps_first_trial=max_steps_first_trial,
+        )
         self.num_particles = num_particles
         self.max_steps = max_steps
         self.max_steps_first_trial = max_steps_first_trial
