@@ -96,8 +96,21 @@ def replay(run_log: RunLog, streamer: RerunStreamer, trials: list[int]) -> None:
         streamer.rollout(
             trial, trajectory, rollout["cost"].to_numpy(), rollout["eval_cost"].to_numpy()
         )
-        streamer.trial_finished(trial, {})
+        streamer.trial_finished(trial, calibration_of(run_log, trial))
     streamer.close()
+
+
+def calibration_of(run_log: RunLog, trial: int) -> dict[str, float]:
+    """The trial's logged calibration figures (``coverage_<i>``, ``nll_<i>``, the means),
+    empty for the exploration trial and for logs written before they existed."""
+    if not len(run_log.trials) or "coverage_0" not in run_log.trials.columns:
+        return {}
+    row = run_log.trials[run_log.trials["trial"] == trial]
+    if row.empty or row["coverage_0"].isna().all():
+        return {}
+    record = row.iloc[0]
+    keys = [k for k in run_log.trials.columns if k.startswith(("coverage_", "nll_"))]
+    return {k: float(record[k]) for k in keys if pd.notna(record[k])}
 
 
 def replay_meshes(run_log: RunLog, args: argparse.Namespace) -> int:

@@ -65,6 +65,12 @@ def test_log_holds_every_rollout_and_the_metadata(tmp_path: Path) -> None:
         np.testing.assert_array_equal(rollout["action_0"].to_numpy()[:-1], trajectory.actions[:, 0])
         assert rollout["eval_cost"].sum() == summary.loc[trial, "eval_cost"]
     assert log.trials["trial"].tolist() == [0, 1, 2]
+    # the calibration figures of the learning trials, as in summary.csv (per component too)
+    for column in ("coverage_mean", "nll_mean", "coverage_p", "nll_θ̇"):
+        assert summary[column].iloc[1:].notna().all()
+    np.testing.assert_allclose(log.trials["coverage_mean"][1:], summary["coverage_mean"][1:])
+    np.testing.assert_allclose(log.trials["coverage_0"][1:], summary["coverage_p"][1:])
+    np.testing.assert_allclose(log.trials["nll_3"][1:], summary["nll_θ̇"][1:])
     assert log.particles[2]["states"].shape == (21, 60, 4)
     assert len(log.optimization) == 6 and not log.truncated
     assert log.optimization["horizon"].tolist() == [20] * 6  # no curriculum: the whole trial

@@ -137,20 +137,23 @@ def read_run_log(path: str | Path) -> RunLog:
                 {"trial": message.trial, "name": message.name, "values": list(message.values)}
             )
         elif topic == "/trial":
-            trials.append(
-                {
-                    f: getattr(message, f)
-                    for f in (
-                        "trial",
-                        "eval_cost",
-                        "success",
-                        "optimization_steps",
-                        "fit_seconds",
-                        "optimization_seconds",
-                        "gp_samples",
-                    )
-                }
-            )
+            row = {
+                f: getattr(message, f)
+                for f in (
+                    "trial",
+                    "eval_cost",
+                    "success",
+                    "optimization_steps",
+                    "fit_seconds",
+                    "optimization_seconds",
+                    "gp_samples",
+                    "coverage_mean",  # calibration (0 in logs written before it existed)
+                    "nll_mean",
+                )
+            }
+            _expand(row, "coverage", message.coverage)  # per state component, in order
+            _expand(row, "nll", message.nll)
+            trials.append(row)
     if report.truncated:
         log.warning(
             "%s ends inside a record (a killed or running writer): reading the "
