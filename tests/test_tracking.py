@@ -15,6 +15,7 @@ from mcap.reader import make_reader
 from omegaconf import OmegaConf
 from synthetic_log import write_log
 
+from analysis.calibrate import calibrate
 from analysis.plot_run import plot_trial
 from mcpilco.run_storage import RunDirectory
 from mcpilco.tracking import read_run_log
@@ -71,6 +72,14 @@ def test_log_holds_every_rollout_and_the_metadata(tmp_path: Path) -> None:
     np.testing.assert_allclose(log.trials["coverage_mean"][1:], summary["coverage_mean"][1:])
     np.testing.assert_allclose(log.trials["coverage_0"][1:], summary["coverage_p"][1:])
     np.testing.assert_allclose(log.trials["nll_3"][1:], summary["nll_θ̇"][1:])
+    # recomputed afterwards from the checkpoints (analysis.calibrate): same figures' kinds,
+    # from a fresh draw of particles
+    again = calibrate(tmp_path, 2, particles=500, seed=1)
+    assert again["trial"] == 2 and 0.0 <= again["coverage_mean"] <= 1.0
+    assert {k for k in again if k.startswith(("coverage_", "nll_"))} == {
+        k for k in summary.columns if k.startswith(("coverage_", "nll_"))
+    }
+    assert (tmp_path / "evaluation" / "trial_02_calibration.json").is_file()
     assert log.particles[2]["states"].shape == (21, 60, 4)
     assert len(log.optimization) == 6 and not log.truncated
     assert log.optimization["horizon"].tolist() == [20] * 6  # no curriculum: the whole trial
