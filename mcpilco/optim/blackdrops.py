@@ -45,7 +45,8 @@ class BlackDropsSearch(PolicySearch):
     the same particle noise, fresh each generation, so CMA-ES ranks candidates on the
     same draws (Black-DROPS instead relies on CMA-ES's uncertainty handling; a variance
     reduction of ours). The search starts at the current policy and ends at the best
-    candidate evaluated.
+    candidate evaluated. Its trace has one entry per generation: ``cost`` the generation's
+    mean Ĵ, ``signal`` its best Ĵ (``learning_rate`` NaN, ``dropout`` 0).
 
     Args:
         num_particles: M per policy evaluation.

@@ -31,6 +31,9 @@ class PilcoSearch(PolicySearch):
     :class:`~mcpilco.moments.propagation.MomentMatchingRollout`, by L-BFGS (strong-Wolfe
     line search) on its analytic gradient (autograd through the closed-form moments).
 
+    Its trace has one entry per objective evaluation with a finite J (``cost``; line-search
+    trial points included; ``learning_rate`` and ``signal`` NaN).
+
     Needs ``model=full_state`` with ``kernel=se`` (PILCO's model), ``policy.squash=sine``
     (PILCO's saturation), a cost with a closed-form Gaussian expectation
     (``cost=cartpole_pilco``) and no tracking reference; :meth:`check` refuses anything else.
