@@ -150,3 +150,20 @@ def test_blackdrops_refuses_gradient_only_options(override: str) -> None:
     key = override.split("=")[0].lstrip("+").split(".")[1]
     with pytest.raises(ConfigError, match=f"optimizer.{key} is an option of gradient-based"):
         build(compose_train("algorithm=blackdrops", override))
+
+
+def test_pilco_initial_policy_sits_where_the_system_starts() -> None:
+    """PILCO's scenario initialisation: centres from N(x̄0, 0.1² I) mapped to x*, small
+    pre-saturation outputs near x0 (≈ 0.1 N(0, 1) in units of the sine's argument)."""
+    from mcpilco.optim.rollout import ParticleRollout
+
+    c = build(compose_train("algorithm=pilco", "cost=cartpole_pilco")).components
+    rollout = ParticleRollout.for_system(c.system, c.model, c.policy, c.cost, c.estimator)
+    c.optimizer.initialise_policy(rollout, torch.Generator().manual_seed(0))
+    centres = c.policy.centres.detach()  # [n_b, 5] = [p, ṗ, θ̇, sin θ, cos θ]
+    assert float(centres[:, [0, 1, 2, 3]].abs().max()) < 0.5
+    assert float(centres[:, 4].min()) > 0.9  # cos θ ≈ 1: hanging
+    x0 = c.model.encode(torch.zeros(1, 4, dtype=F64))
+    with torch.no_grad():
+        u = c.policy(x0)
+    assert 0 < float(u.abs()) < 0.5 * c.policy.u_max
