@@ -4,12 +4,34 @@ moment matching (Deisenroth & Rasmussen 2011, §2.2–2.3)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import torch
 
+from mcpilco.models.base import ModelStructure
 from mcpilco.moments.gaussian import Gaussian, JointGaussian, selection
 from mcpilco.moments.rbf import rbf_moments
 from mcpilco.moments.trig import trig_moments
+
+
+class MomentPolicy(Protocol):
+    """A policy with exact action moments at a Gaussian input (the sine-squashed RBF
+    network; a linear policy)."""
+
+    def gaussian_moments(
+        self, mean: torch.Tensor, cov: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """Mean ``[d_u]``, covariance ``[d_u, d_u]``, factor ``[d_in, d_u]`` (Cov(in, u) =
+        cov · factor) for the input N(mean ``[d_in]``, cov)."""
+        ...
+
+
+class ExpectedCost(Protocol):
+    """A cost with a closed-form expectation under a Gaussian state."""
+
+    def expected_gaussian(self, mean: torch.Tensor, cov: torch.Tensor) -> torch.Tensor:
+        """E c(x), x ~ N(mean ``[d_x]``, cov ``[d_x, d_x]``) (0-dim)."""
+        ...
 
 
 @dataclass
@@ -44,9 +66,9 @@ class MomentMatchingRollout:
 
     def __init__(
         self,
-        model: torch.nn.Module,
-        policy: torch.nn.Module,
-        cost: torch.nn.Module,
+        model: ModelStructure,
+        policy: MomentPolicy,
+        cost: ExpectedCost,
         initial_mean: torch.Tensor,
         initial_cov: torch.Tensor,
         horizon: int,
