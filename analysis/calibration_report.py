@@ -1,12 +1,13 @@
 """Per-trial model calibration and time per trial of a sweep, for :mod:`analysis.report`.
 
-Calibration (:mod:`mcpilco.calibration`): the share of real time steps inside the final
-policy's particles' central 95 % band (a calibrated model covers ≈ 0.95) and the Gaussian
+Calibration (:mod:`mcpilco.calibration`, or ``analysis.calibrate`` afterwards): the share
+of real time steps inside the final policy's particles' central 95 % band (a calibrated model covers ≈ 0.95) and the Gaussian
 negative log-likelihood of the real states under the particles' mean and variance.
 """
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import matplotlib
@@ -16,6 +17,22 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
 COLUMNS = ("coverage_mean", "nll_mean")
+
+
+def with_recomputed(trials: pd.DataFrame) -> pd.DataFrame:
+    """``trials`` with the calibration figures a run lacks in its ``summary.csv`` (logged
+    before they existed) taken from ``evaluation/trial_KK_calibration.json`` where
+    ``analysis.calibrate`` wrote one; other rows unchanged."""
+    trials = trials.copy()
+    for index, row in trials.iterrows():
+        if pd.notna(row.get("coverage_mean")) or row["trial"] < 1:
+            continue
+        path = Path(row["run"]) / "evaluation" / f"trial_{int(row['trial']):02d}_calibration.json"
+        if path.is_file():
+            for key, value in json.loads(path.read_text()).items():
+                if key != "trial":
+                    trials.loc[index, key] = value
+    return trials
 
 
 def calibration_table(trials: pd.DataFrame) -> pd.DataFrame:

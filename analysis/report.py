@@ -43,6 +43,7 @@ from analysis.calibration_report import (  # noqa: E402
     calibration_table,
     timing_markdown,
     timing_table,
+    with_recomputed,
 )
 from analysis.prediction_errors import prediction_error_figure, prediction_errors  # noqa: E402
 from analysis.swing_up import ReferenceCost, reference_costs  # noqa: E402
@@ -247,6 +248,7 @@ def write_report(paths: Sequence[Path], out: Path, command: str) -> dict[str, Pa
         figures = cumulative_cost_figure(trials, out, references)
     else:
         sections.append("- no cumulative-cost figure: the system reports no evaluation cost")
+    trials = with_recomputed(trials)
     if "coverage_mean" in trials.columns and trials["coverage_mean"].notna().any():
         table = calibration_table(trials)
         table.to_csv(out / "calibration.csv", index=False)
