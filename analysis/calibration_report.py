@@ -1,8 +1,9 @@
 """Per-trial model calibration and time per trial of a sweep, for :mod:`analysis.report`.
 
 Calibration (:mod:`mcpilco.calibration`, or ``analysis.calibrate`` afterwards): the share
-of real time steps inside the final policy's particles' central 95 % band (a calibrated model covers ≈ 0.95) and the Gaussian
-negative log-likelihood of the real states under the particles' mean and variance.
+of real time steps inside the final policy's particles' central 95 % band (a calibrated
+model covers ≈ 0.95) and the Gaussian negative log-likelihood of the real states under the
+particles' mean and variance.
 """
 
 from __future__ import annotations
