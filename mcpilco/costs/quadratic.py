@@ -3,14 +3,14 @@ with its closed-form expectation under a Gaussian state."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import torch
 
 from mcpilco.costs.base import Cost
 from mcpilco.errors import ConfigError
-from mcpilco.moments.gaussian import Gaussian, JointGaussian, selection
-from mcpilco.moments.trig import trig_moments
+from mcpilco.moments.gaussian import JointGaussian
 
 
 class SaturatingQuadratic(Cost):
@@ -83,17 +83,9 @@ class SaturatingQuadratic(Cost):
         spread = projected.cov + self.width**2 * eye  # (S + w² I) = w² (I + S W)
         factor = torch.linalg.cholesky(spread)
         solved = torch.cholesky_solve(centred[:, None], factor)[:, 0]
-        log_det = 2.0 * torch.log(torch.diagonal(factor)).sum() - k * 2.0 * torch.log(
-            torch.tensor(self.width, dtype=mean.dtype)
-        )
+        log_det = 2.0 * torch.log(torch.diagonal(factor)).sum() - 2.0 * k * math.log(self.width)
         return 1.0 - torch.exp(-0.5 * log_det - 0.5 * (centred * solved).sum())
 
     def augmented(self, mean: torch.Tensor, cov: torch.Tensor) -> JointGaussian:
         """The Gaussian of z(x) = [x, sin x_A, cos x_A] (moments exact)."""
-        joint = JointGaussian(mean, cov)
-        if not self.angles:
-            return joint
-        selector = selection(mean.shape[0], self.angles, mean)
-        angles = Gaussian(mean, cov).select(selector)
-        trig_mean, trig_cov, stein = trig_moments(angles.mean, angles.cov)
-        return joint.extend(selector, trig_mean, trig_cov, stein)
+        return JointGaussian(mean, cov).with_trig(self.angles)

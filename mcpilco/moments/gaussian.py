@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import torch
 
+from mcpilco.moments.trig import trig_moments
+
 
 @dataclass(frozen=True)
 class Gaussian:
@@ -40,6 +42,15 @@ class JointGaussian(Gaussian):
             [torch.cat([self.cov, cross], dim=1), torch.cat([cross.T, out_cov], dim=1)], dim=0
         )
         return JointGaussian(torch.cat([self.mean, out_mean]), cov)
+
+    def with_trig(self, indices: list[int]) -> JointGaussian:
+        """Append [sin x_I, cos x_I] of the components ``indices`` (exact moments, cross-
+        covariances by Stein's lemma): [x, sin x_I, cos x_I]; unchanged without indices."""
+        if not indices:
+            return self
+        pick = selection(self.mean.shape[0], indices, self.mean)
+        angles = self.select(pick)
+        return self.extend(pick, *trig_moments(angles.mean, angles.cov))
 
     def head(self, size: int) -> Gaussian:
         """The marginal of the first ``size`` variables."""

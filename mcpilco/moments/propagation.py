@@ -11,7 +11,6 @@ import torch
 from mcpilco.models.base import ModelStructure
 from mcpilco.moments.gaussian import Gaussian, JointGaussian, selection
 from mcpilco.moments.rbf import rbf_moments
-from mcpilco.moments.trig import trig_moments
 
 
 class MomentPolicy(Protocol):
@@ -119,12 +118,7 @@ class MomentMatchingRollout:
     ) -> tuple[torch.Tensor, torch.Tensor]:
         """N(m_{t+1}, S_{t+1}) ``[d_x]``, ``[d_x, d_x]`` from N(m_t, S_t)."""
         d_x = self.state_dim
-        joint = JointGaussian(mean, cov)
-        angles = self.model.features.angle_indices
-        if angles:
-            pick = selection(d_x, angles, mean)
-            angle = joint.select(pick)
-            joint = joint.extend(pick, *trig_moments(angle.mean, angle.cov))
+        joint = JointGaussian(mean, cov).with_trig(self.model.features.angle_indices)
         encoded = selection(self.trig_size, self.encoded_rows, mean)
         policy_in = joint.select(encoded)
         u_mean, u_cov, u_factor = self.policy.gaussian_moments(policy_in.mean, policy_in.cov)

@@ -129,8 +129,7 @@ class BlackDropsSearch(PolicySearch):
         generator: torch.Generator | None,
         on_step: Callable[[StepInfo], None] | None = None,
     ) -> OptimizationResult:
-        self.check(rollout)
-        policy = rollout.policy
+        policy = rollout.policy  # components checked by build() (self.check)
         start = parameters_to_vector(policy.parameters()).detach()
         like = {"dtype": start.dtype, "device": start.device}
         result = OptimizationResult()

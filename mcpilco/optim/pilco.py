@@ -157,8 +157,7 @@ class PilcoSearch(PolicySearch):
     ) -> OptimizationResult:
         """L-BFGS for at most ``max_iterations`` iterations; the policy ends at the best
         evaluated point (a line search may try non-finite or worse points)."""
-        self.check(rollout)
-        policy = rollout.policy
+        policy = rollout.policy  # components checked by build() (self.check)
         if trial == 1 and self.initialisation == "pilco":
             self.initialise_policy(rollout, generator)
         predict = self.predictor(rollout)

@@ -18,6 +18,27 @@ ANGLE_CENTRES = ("uniform", "circle")
 SQUASHES = ("tanh", "sine")
 
 
+def _squashed(
+    z: torch.Tensor,
+    twice_centres_t: torch.Tensor,
+    centre_offset: torch.Tensor,
+    weights: torch.Tensor,
+    u_max: float,
+    squash: str,
+    keep: torch.Tensor | None = None,
+) -> torch.Tensor:
+    """u_max squash((keep ⊙ exp(z C + b − |z|²)) W) with plain (out-of-place) autograd ops,
+    for scaled inputs z ``[..., M, d]`` and C ``[..., d, n_b]``, b ``[..., 1, n_b]``,
+    W ``[..., n_b, d_u]`` (already divided by u_max), batched over leading dimensions (one
+    policy, or a population of P policies); ``keep``: a dropout mask or None."""
+    exponent = torch.matmul(z, twice_centres_t) + centre_offset - z.square().sum(-1, keepdim=True)
+    activations = exponent.exp() if keep is None else exponent.exp() * keep
+    hidden = torch.matmul(activations, weights)
+    if squash == "sine":
+        return sine_saturate(hidden, u_max)
+    return torch.tanh(hidden) * u_max
+
+
 class _SquashedRBF(torch.autograd.Function):
     """u_max tanh((mask ⊙ exp(z C − |z|² + b)) W) for inputs x ``[M, d]``, z = x ⊙ ι with
     inverse length-scales ι ``[d]``; ``C = 2 cᵀ`` ``[d, n_b]`` and ``b = −|c_i|²`` ``[n_b]``
@@ -243,12 +264,13 @@ class SquashedRBFPolicy(nn.Module):
         if self.squash == "sine":
 
             def act_sine(inputs: torch.Tensor, bits: torch.Tensor | None = None) -> torch.Tensor:
-                z = inputs * inverse  # plain autograd ops: the tanh path's backward is fused
-                exponent = z @ twice_centres_t + centre_offset - z.square().sum(-1, keepdim=True)
-                activations = exponent.exp()
+                # plain autograd ops (the tanh path's backward is the fused one)
+                keep = None
                 if masked and bits is not None:
-                    activations = activations * bits.to(z.dtype).sub(below).clamp(0.0, 1.0)
-                return sine_saturate(activations @ weights, u_max)
+                    keep = bits.to(inputs.dtype).sub(below).clamp(0.0, 1.0)
+                return _squashed(
+                    inputs * inverse, twice_centres_t, centre_offset, weights, u_max, "sine", keep
+                )
 
             return act_sine
 
@@ -303,18 +325,13 @@ class SquashedRBFPolicy(nn.Module):
         inverse = torch.exp(-log_lengthscale)[:, None, :]  # [P, 1, d]
         scaled = centres.view(count, self.num_basis, dim) * inverse  # [P, n_b, d]
         twice_t = 2.0 * scaled.transpose(1, 2)  # [P, d, n_b]
-        offset = scaled.square().sum(-1)[:, None, :]  # [P, 1, n_b]
+        offset = -scaled.square().sum(-1)[:, None, :]  # [P, 1, n_b]
         scaled_weights = weights.view(count, self.num_basis, outputs) / self.u_max
         u_max, squash = self.u_max, self.squash
 
         def act(inputs: torch.Tensor, bits: torch.Tensor | None = None) -> torch.Tensor:
             z = inputs.view(count, -1, dim) * inverse  # [P, M, d]
-            exponent = torch.bmm(z, twice_t) - offset - z.square().sum(-1, keepdim=True)
-            hidden = torch.bmm(exponent.exp(), scaled_weights)  # [P, M, d_u]
-            if squash == "sine":
-                actions = sine_saturate(hidden, u_max)
-            else:
-                actions = torch.tanh(hidden) * u_max
+            actions = _squashed(z, twice_t, offset, scaled_weights, u_max, squash)
             return actions.reshape(-1, outputs)
 
         return act
