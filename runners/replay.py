@@ -174,17 +174,22 @@ def main(argv: list[str] | None = None) -> int:
     if missing:
         log.error("trials %s are not in %s (it holds %s)", missing, args.run_dir, available)
         return 2
-    sketch = None
+    sketch, names = None, ()
     if run_log.metadata and "config" in run_log.metadata[0]:
         # the logged system, for its drawing; checked first (see mcpilco.safe_config), and
         # a plug-in that is not importable here only costs the drawing
         system = saved_system(run_log.metadata[0]["config"], f"{args.run_dir} (MCAP metadata)")
-        sketch = None if system is None else system.sketch
+        if system is not None:
+            sketch, names = system.sketch, system.state_names
     if args.connect:
-        streamer = RerunStreamer(args.run_dir, mode="connect", url=args.connect, sketch=sketch)
+        streamer = RerunStreamer(
+            args.run_dir, mode="connect", url=args.connect, sketch=sketch, state_names=names
+        )
     else:
         out = args.save or args.run_dir / "replay.rrd"
-        streamer = RerunStreamer(out.parent, mode="save", filename=out.name, sketch=sketch)
+        streamer = RerunStreamer(
+            out.parent, mode="save", filename=out.name, sketch=sketch, state_names=names
+        )
     replay(run_log, streamer, trials)
     log.info("replayed trials %s", trials)
     return 0

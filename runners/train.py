@@ -92,7 +92,9 @@ def build_observers(
         raise ConfigError(f"tracking.rerun={mode!r} must be off, save or connect")
     if mode != "off":
         stream = make(tracking.rerun_stream)
-        observers.append(stream(run_dir=run_dir, mode=mode, sketch=system.sketch))
+        observers.append(
+            stream(run_dir=run_dir, mode=mode, sketch=system.sketch, state_names=system.state_names)
+        )
     return observers
 
 

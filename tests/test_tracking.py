@@ -149,10 +149,32 @@ def particle_values(recording: Path, trial: int) -> int:
 
     total = 0
     for chunk in RrdReader(recording).store().stream():
-        if str(chunk.entity_path) == f"/trial_{trial}/particles/x0":
-            batch = chunk.to_record_batch()
+        batch = chunk.to_record_batch()
+        if str(chunk.entity_path) == f"/trial_{trial}/particles/x0" and (
+            "Scalars:scalars" in batch.schema.names  # not the static line style
+        ):
             total += sum(len(v) for v in batch.column("Scalars:scalars").to_pylist())
     return total
+
+
+def blueprint_names(recording: Path) -> list[tuple[set[str], set[str]]]:
+    """Per blueprint in the recording: its containers' and views' names, and the time
+    panel's timeline."""
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(recording)
+    found = []
+    for entry in reader.blueprints():
+        names, timelines = set(), set()
+        for chunk in reader.store(store=entry).stream():
+            batch = chunk.to_record_batch()
+            for column in batch.schema.names:
+                if column.endswith(":display_name"):
+                    names.update(v for row in batch.column(column).to_pylist() for v in row)
+                if column == "TimePanelBlueprint:timeline":
+                    timelines.update(v for row in batch.column(column).to_pylist() for v in row)
+        found.append((names, timelines))
+    return found
 
 
 def test_rerun_recording_and_replay_verify_and_hold_the_particles(tmp_path: Path) -> None:
@@ -189,6 +211,10 @@ def test_rerun_recording_and_replay_verify_and_hold_the_particles(tmp_path: Path
         )
         assert verify.returncode == 0, verify.stderr[-1000:]
         assert particle_values(recording, 1) == 60 * 21  # M particles × (T + 1) steps
+        # the blueprint sent after the last trial: a tab per trial, config, time panel on time
+        names, timelines = blueprint_names(recording)[-1]
+        assert {"trial 0", "trial 1", "optimisation", "config", "system"} <= names
+        assert timelines == {"time"}
 
 
 def test_replay_of_a_missing_trial_fails_clearly(tmp_path: Path) -> None:

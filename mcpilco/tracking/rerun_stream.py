@@ -4,15 +4,23 @@ Every call logs whole arrays with ``rr.send_columns`` (one call per entity and t
 one scalar per call). Entities, per trial k and state component i:
 ``trial_k/particles/x{i}`` (M' particle values per time step), ``trial_k/mean/x{i}``,
 ``trial_k/real/x{i}`` (the system's true state), ``trial_k/cost`` (real) and
-``trial_k/particle_cost`` (mean over particles), all on the ``time`` timeline (seconds);
+``trial_k/particle_cost`` (mean over particles) and ``trial_k/system`` (the system's 2-D
+drawing, when it has one), all on the ``time`` timeline (seconds);
 ``optimization/{cost,dropout,learning_rate,signal,horizon}`` on the ``optimization_step`` and
-``trial`` timelines.
+``trial`` timelines; ``calibration/{coverage,nll}/x{i}`` on ``trial``; ``run/config`` (static).
+
+Every recording carries its blueprint (:func:`run_blueprint`), re-sent after each trial: a tab
+per trial (newest first) with particles, their mean and the real rollout in one plot per state
+component, the drawing and the costs; a tab with the optimisation and calibration curves (on
+their own timelines: Rerun's views follow the time panel's timeline, so these show once
+``optimization_step`` or ``trial`` is picked there); the run's config as text; the time panel
+on ``time``.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +35,16 @@ from mcpilco.trajectory import Trajectory
 
 LOCAL_VIEWER = "rerun+http://127.0.0.1:9876/proxy"
 
+# Colour (RGBA, on the viewer's dark background), width and legend name of each series kind.
+STYLES: dict[str, tuple[tuple[int, int, int, int], float, str]] = {
+    "particles": ((150, 150, 150, 110), 0.75, "particle"),
+    "mean": ((70, 150, 255, 255), 2.5, "particle mean"),
+    "real": ((255, 165, 40, 255), 2.5, "system"),
+    "cost": ((255, 165, 40, 255), 2.0, "system"),
+    "particle_cost": ((70, 150, 255, 255), 2.0, "particle mean"),
+}
+KEY = "grey: particles, blue: their mean, orange: the system"
+
 
 class RerunStreamer(TrialObserver):
     """A Rerun recording of the run.
@@ -38,6 +56,8 @@ class RerunStreamer(TrialObserver):
         max_particles: particles drawn per trial (the first ones; mean uses all).
         sketch: the system's 2-D drawing of states (``MechanicalSystem.sketch``), drawn
             on ``trial_k/system`` along the ``time`` timeline.
+        state_names: the state components' names (``MechanicalSystem.state_names``), for
+            the plots' titles; ``x{i}`` alone where missing.
     """
 
     wants_particles = True
@@ -50,6 +70,7 @@ class RerunStreamer(TrialObserver):
         url: str = LOCAL_VIEWER,
         max_particles: int = 100,
         sketch: Callable[[np.ndarray], np.ndarray | None] | None = None,
+        state_names: Sequence[str] = (),
     ) -> None:
         if mode not in ("save", "connect"):
             raise ConfigError(f"tracking.rerun.mode must be save or connect, got {mode!r}")
@@ -64,11 +85,25 @@ class RerunStreamer(TrialObserver):
             self.recording.connect_grpc(url)
         self._optimization_steps = 0
         self.sketch = sketch
+        self.state_names = tuple(state_names)
         self._trials: list[int] = []
         self._state_dim = 0
 
-    def _scalars(self, entity: str, times: np.ndarray, values: np.ndarray) -> None:
-        """``values [T]`` or ``[T, K]`` (K series) against ``times [T]`` seconds."""
+    def _scalars(
+        self, entity: str, times: np.ndarray, values: np.ndarray, kind: str | None = None
+    ) -> None:
+        """``values [T]`` or ``[T, K]`` (K series) against ``times [T]`` seconds, drawn in
+        the colour and width of ``kind`` (a key of ``STYLES``)."""
+        if kind is not None:
+            colour, width, name = STYLES[kind]
+            series = 1 if values.ndim == 1 else values.shape[1]
+            self.recording.log(
+                entity,
+                rr.SeriesLines(
+                    colors=[colour] * series, widths=[width] * series, names=[name] * series
+                ),
+                static=True,
+            )
         columns = rr.Scalars.columns(scalars=np.ascontiguousarray(values, dtype=np.float64).ravel())
         if values.ndim == 2:
             columns = columns.partition([values.shape[1]] * values.shape[0])
@@ -79,7 +114,7 @@ class RerunStreamer(TrialObserver):
     def run_started(self, metadata: Mapping[str, str], resumed_after: int) -> None:
         text = metadata.get("config", "")
         self.recording.log(
-            "run/config", rr.TextDocument(text, media_type="text/markdown"), static=True
+            "run/config", rr.TextDocument(text, media_type=rr.MediaType.TEXT), static=True
         )
 
     def particles_predicted(
@@ -88,9 +123,9 @@ class RerunStreamer(TrialObserver):
         times = np.arange(states.shape[0]) * dt
         shown = states[:, : self.max_particles]
         for i in range(states.shape[2]):
-            self._scalars(f"trial_{trial}/particles/x{i}", times, shown[:, :, i])
-            self._scalars(f"trial_{trial}/mean/x{i}", times, states[:, :, i].mean(1))
-        self._scalars(f"trial_{trial}/particle_cost", times, costs.mean(1))
+            self._scalars(f"trial_{trial}/particles/x{i}", times, shown[:, :, i], "particles")
+            self._scalars(f"trial_{trial}/mean/x{i}", times, states[:, :, i].mean(1), "mean")
+        self._scalars(f"trial_{trial}/particle_cost", times, costs.mean(1), "particle_cost")
 
     def rollout(
         self,
@@ -102,40 +137,31 @@ class RerunStreamer(TrialObserver):
     ) -> None:
         times = trajectory.times
         for i in range(trajectory.states.shape[1]):
-            self._scalars(f"trial_{trial}/real/x{i}", times, trajectory.states[:, i])
-        self._scalars(f"trial_{trial}/cost", times, costs)
+            self._scalars(f"trial_{trial}/real/x{i}", times, trajectory.states[:, i], "real")
+        self._scalars(f"trial_{trial}/cost", times, costs, "cost")
+        drawing = None if self.sketch is None else self.sketch(trajectory.states)
+        if drawing is not None:
+            self._segments(f"trial_{trial}/system", times, drawing)
+        if trial not in self._trials:
+            self._trials.append(trial)
+        self._state_dim = trajectory.states.shape[1]
+        self.recording.send_blueprint(self.blueprint(), make_active=True, make_default=True)
+
+    def _segments(self, entity: str, times: np.ndarray, drawing: np.ndarray) -> None:
+        """Line segments ``drawing [T, S, 2, 2]`` (metres) per time ``times [T]`` seconds."""
+        steps, segments = drawing.shape[:2]
+        strips = np.ascontiguousarray(drawing, dtype=np.float32).reshape(steps * segments, 2, 2)
+        columns = rr.LineStrips2D.columns(strips=list(strips)).partition([segments] * steps)
+        self.recording.send_columns(
+            entity, indexes=[rr.TimeColumn("time", duration=times)], columns=columns
+        )
 
     def blueprint(self) -> rrb.Blueprint:
-        """Latest trial: particles, mean and real trajectory per state component, the system
-        drawing, costs; optimisation curves below; earlier trials in tabs."""
-        tabs = []
-        for trial in reversed(self._trials):
-            plots = [
-                rrb.TimeSeriesView(
-                    name=f"x{i}",
-                    origin=f"/trial_{trial}",
-                    contents=[f"+ particles/x{i}/**", f"+ mean/x{i}", f"+ real/x{i}"],
-                )
-                for i in range(self._state_dim)
-            ]
-            side = [
-                rrb.Spatial2DView(name="system", origin=f"/trial_{trial}/system"),
-                rrb.TimeSeriesView(
-                    name="cost", origin=f"/trial_{trial}", contents=["+ cost", "+ particle_cost"]
-                ),
-            ]
-            tabs.append(
-                rrb.Horizontal(rrb.Grid(*plots), rrb.Vertical(*side), name=f"trial {trial}")
-            )
-        optimization = rrb.TimeSeriesView(name="optimisation", origin="/optimization")
-        calibration = rrb.TimeSeriesView(name="calibration per trial", origin="/calibration")
-        return rrb.Blueprint(
-            rrb.Vertical(
-                rrb.Tabs(*tabs),
-                rrb.Horizontal(optimization, calibration, column_shares=[2, 1]),
-                row_shares=[3, 1],
-            )
-        )
+        """The recording's layout for the trials seen so far (see :func:`run_blueprint`)."""
+        names = [
+            self.state_names[i] if i < len(self.state_names) else "" for i in range(self._state_dim)
+        ]
+        return run_blueprint(sorted(self._trials, reverse=True), names, self.sketch is not None)
 
     def optimized(self, trial: int, trace: Mapping[str, list[float]]) -> None:
         steps = np.arange(len(trace["cost"])) + self._optimization_steps
@@ -166,3 +192,62 @@ class RerunStreamer(TrialObserver):
     def close(self) -> None:
         self.recording.flush()
         self.recording.disconnect()
+
+
+def run_blueprint(
+    trials: Sequence[int], state_names: Sequence[str], drawing: bool
+) -> rrb.Blueprint:
+    """A run's Rerun layout.
+
+    Args:
+        trials: the trials to show, one tab each, in this order (the first is shown).
+        state_names: one per state component (``""`` where unnamed); a plot each.
+        drawing: whether ``trial_k/system`` holds the system's drawing.
+    """
+    tabs: list[rrb.Container | rrb.View] = []
+    for trial in trials:
+        plots = [
+            rrb.TimeSeriesView(
+                name=f"x{i} {name}".strip() + ("" if i else f" ({KEY})"),
+                plot_legend=rrb.PlotLegend(visible=False),
+                origin=f"/trial_{trial}",
+                contents=[f"+ $origin/{part}/x{i}/**" for part in ("particles", "mean", "real")],
+            )
+            for i, name in enumerate(state_names)
+        ]
+        cost = rrb.TimeSeriesView(
+            name="cost (orange: system, blue: particle mean)",
+            origin=f"/trial_{trial}",
+            contents=["+ $origin/cost", "+ $origin/particle_cost"],
+        )
+        side = (
+            [rrb.Spatial2DView(name="system", origin=f"/trial_{trial}/system")] if drawing else []
+        )
+        tabs.append(
+            rrb.Horizontal(
+                rrb.Grid(*plots),
+                rrb.Vertical(*side, cost),
+                column_shares=[3, 1],
+                name=f"trial {trial}",
+            )  # fmt: skip
+        )
+    tabs.append(
+        rrb.Vertical(
+            rrb.TimeSeriesView(
+                name="optimisation (timeline optimization_step)", origin="/optimization"
+            ),
+            rrb.TimeSeriesView(name="calibration (timeline trial)", origin="/calibration"),
+            name="optimisation",
+        )
+    )
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Tabs(*tabs, active_tab=0),
+            rrb.TextDocumentView(name="config", origin="/run/config"),
+            column_shares=[4, 1],
+        ),
+        rrb.TimePanel(timeline="time", state="collapsed"),
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+        auto_views=False,
+    )
