@@ -64,49 +64,56 @@ def stop_group(process: subprocess.Popen[Any], grace: float = 5.0) -> None:
             continue
 
 
-class _OneFile(BaseHTTPRequestHandler):
-    """Serves one file at ``/<its name>`` with CORS; everything else is 404."""
+class _GivenFiles(BaseHTTPRequestHandler):
+    """Serves the given files, the k-th at ``/<k>/<its name>``, with CORS; nothing else."""
 
-    def __init__(self, *args: Any, path: Path, **kwargs: Any) -> None:
-        self.file = path
+    def __init__(self, *args: Any, files: list[Path], **kwargs: Any) -> None:
+        self.files = {file_url_path(k, f): f for k, f in enumerate(files)}
         super().__init__(*args, **kwargs)
 
-    def _head(self) -> bool:
-        if self.path.split("?")[0] != f"/{self.file.name}":
+    def _head(self) -> Path | None:
+        file = self.files.get(self.path.split("?")[0])
+        if file is None:
             self.send_error(404)
-            return False
+            return None
         self.send_response(200)
         self.send_header("Content-Type", "application/octet-stream")
-        self.send_header("Content-Length", str(self.file.stat().st_size))
+        self.send_header("Content-Length", str(file.stat().st_size))
         self.send_header("Access-Control-Allow-Origin", "*")
         self.end_headers()
-        return True
+        return file
 
     def do_HEAD(self) -> None:  # noqa: N802 (the http.server interface)
         self._head()
 
     def do_GET(self) -> None:  # noqa: N802
-        if self._head():
-            with self.file.open("rb") as source:
+        file = self._head()
+        if file is not None:
+            with file.open("rb") as source:
                 shutil.copyfileobj(source, self.wfile)
 
     def log_message(self, format: str, *args: Any) -> None:  # noqa: A002
         log.debug("recording server: " + format, *args)
 
 
-class RecordingServer:
-    """Serves ``path`` on 127.0.0.1 (a free port) while the context is open; yields its URL."""
+def file_url_path(index: int, file: Path) -> str:
+    return f"/{index}/{quote(file.name)}"
 
-    def __init__(self, path: Path) -> None:
-        self.path = path.resolve()
-        self.server = ThreadingHTTPServer(
-            (LOCALHOST, 0), functools.partial(_OneFile, path=self.path)
-        )
+
+class RecordingServer:
+    """Serves ``files`` on 127.0.0.1 (a free port) while the context is open; yields their
+    URLs."""
+
+    def __init__(self, files: Path | list[Path]) -> None:
+        self.files = [f.resolve() for f in ([files] if isinstance(files, Path) else files)]
+        handler = functools.partial(_GivenFiles, files=self.files)
+        self.server = ThreadingHTTPServer((LOCALHOST, 0), handler)
         self.thread = threading.Thread(target=self.server.serve_forever, daemon=True)
 
-    def __enter__(self) -> str:
+    def __enter__(self) -> list[str]:
         self.thread.start()
-        return f"http://{LOCALHOST}:{self.server.server_address[1]}/{quote(self.path.name)}"
+        root = f"http://{LOCALHOST}:{self.server.server_address[1]}"
+        return [root + file_url_path(k, f) for k, f in enumerate(self.files)]
 
     def __exit__(self, *exc: object) -> None:
         self.server.shutdown()
@@ -115,18 +122,18 @@ class RecordingServer:
 
 
 class WebViewer:
-    """``rerun --serve-web`` on 127.0.0.1 (a free port) for one recording URL; yields the
-    viewer's URL. Given a URL to show, rerun hosts only the viewer's files (no gRPC proxy)."""
+    """``rerun --serve-web`` on 127.0.0.1 (a free port) for recording URLs; yields the
+    viewer's URL. Given URLs to show, rerun hosts only the viewer's files (no gRPC proxy)."""
 
-    def __init__(self, recording_url: str, startup: float = 30.0) -> None:
-        self.recording_url = recording_url
+    def __init__(self, recording_urls: list[str], startup: float = 30.0) -> None:
+        self.recording_urls = recording_urls
         self.startup = startup
         self.process: subprocess.Popen[str] | None = None
 
     def __enter__(self) -> str:
         rerun = Path(sys.executable).parent / "rerun"
         command = [str(rerun) if rerun.exists() else "rerun", "--serve-web", "--bind", LOCALHOST]
-        command += ["--web-viewer-port", "0", self.recording_url]
+        command += ["--web-viewer-port", "0", *self.recording_urls]
         self.process = subprocess.Popen(
             command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
             start_new_session=True,

@@ -26,7 +26,7 @@ import numpy as np
 
 from analysis.browser import Chromium, DevTools, RecordingServer, WebViewer, find_chromium
 from analysis.viewer_state import ViewerState, decode_viewer_state
-from mcpilco.tracking.rerun_stream import STYLES
+from mcpilco.tracking.rerun_stream import STYLES, recording_parts
 
 log = logging.getLogger("mcpilco.screenshot")
 
@@ -55,20 +55,23 @@ class Screenshot:
     mean_pixels: float
 
 
-def find_recording(path: Path) -> Path:
-    """The ``.rrd`` to show for ``path`` (a recording, or a run directory)."""
+def find_recording(path: Path) -> list[Path]:
+    """The ``.rrd`` files to show for ``path``: the file itself; for a run directory, the
+    parts of its live recording (``recording.rrd``, ``recording.1.rrd`` after a resume, ...),
+    else ``replay.rrd``, rebuilt from the MCAP log when missing."""
     if path.is_file():
-        return path
+        return [path]
     if not path.is_dir():
         raise FileNotFoundError(f"{path} is neither a recording nor a run directory")
-    for name in ("recording.rrd", "replay.rrd"):
-        if (path / name).is_file():
-            return path / name
-    from runners.replay import main as replay
+    parts = recording_parts(path)
+    if parts:
+        return parts
+    if not (path / "replay.rrd").is_file():
+        from runners.replay import main as replay
 
-    if replay([str(path)]) != 0:
-        raise FileNotFoundError(f"{path} has no recording and its MCAP log cannot be replayed")
-    return path / "replay.rrd"
+        if replay([str(path)]) != 0:
+            raise FileNotFoundError(f"{path} has no recording and its MCAP log cannot be replayed")
+    return [path / "replay.rrd"]
 
 
 def rgb(png: bytes) -> np.ndarray:
@@ -115,7 +118,7 @@ def wait_for_views(devtools: DevTools, timeout: float, settle: float = 1.5) -> V
 
 
 def capture(
-    recording: Path,
+    recording: Path | list[Path],
     out: Path,
     size: tuple[int, int] = (1600, 900),
     timeout: float = 120.0,
@@ -124,7 +127,7 @@ def capture(
     """Show ``recording`` in the web viewer and write the page as a PNG to ``out``.
 
     Args:
-        recording: an ``.rrd`` file.
+        recording: an ``.rrd`` file, or the parts of one recording (shown together).
         out: the PNG to write.
         size: the browser window (pixels, width × height).
         timeout: seconds allowed for the viewer to load the recording and show its views.
@@ -132,13 +135,14 @@ def capture(
     """
     chromium = find_chromium()
     with (
-        RecordingServer(recording) as file_url,
-        WebViewer(file_url) as viewer_url,
+        RecordingServer(recording) as file_urls,
+        WebViewer(file_urls) as viewer_url,
         Chromium(chromium, size) as browser,
         DevTools(browser.page_websocket()) as devtools,
     ):
         started = time.monotonic()
-        devtools.navigate(f"{viewer_url}/?url={quote(file_url, safe='')}&persist=0", size)
+        query = "&".join(f"url={quote(url, safe='')}" for url in file_urls)
+        devtools.navigate(f"{viewer_url}/?{query}&persist=0", size)
         state = wait_for_views(devtools, timeout)
         seconds = time.monotonic() - started
         time.sleep(render_seconds)
@@ -166,7 +170,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         recording = find_recording(args.path)
-        out = args.out or recording.with_name("viewer.png")
+        out = args.out or recording[0].with_name("viewer.png")
         shot = capture(recording, out, (width, height), args.timeout)
     except (FileNotFoundError, RuntimeError, TimeoutError) as error:
         log.error("%s", error)

@@ -188,8 +188,9 @@ def main(argv: list[str] | None = None) -> int:
     else:
         out = args.save or args.run_dir / "replay.rrd"
         streamer = RerunStreamer(
-            out.parent, mode="save", filename=out.name, sketch=sketch, state_names=names
-        )
+            out.parent, mode="save", filename=out.name, sketch=sketch, state_names=names,
+            new_part=False,
+        )  # fmt: skip
     replay(run_log, streamer, trials)
     log.info("replayed trials %s", trials)
     return 0

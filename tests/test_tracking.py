@@ -250,3 +250,28 @@ def test_truncated_anywhere_reads_a_prefix_of_whole_trials(tmp_path: Path) -> No
         assert len(trials) >= previous  # more bytes never lose a trial
         previous = len(trials)
     assert previous >= 3
+
+
+def test_a_resumed_run_adds_a_recording_part_and_its_blueprint_keeps_the_earlier_trials(
+    tmp_path: Path,
+) -> None:
+    from mcpilco.tracking import RerunStreamer
+    from mcpilco.tracking.rerun_stream import recording_parts
+    from mcpilco.trajectory import Trajectory
+
+    states = np.zeros((11, 2))
+    trajectory = Trajectory(states, states, np.zeros((10, 1)), 0.1)
+    first = RerunStreamer(tmp_path)
+    first.run_started({}, -1)
+    for trial in (0, 1):
+        first.rollout(trial, trajectory, np.zeros(11), np.zeros(11))
+    first.close()
+    size = (tmp_path / "recording.rrd").stat().st_size
+    resumed = RerunStreamer(tmp_path)  # a resume after trial 1
+    resumed.run_started({}, 1)
+    resumed.rollout(2, trajectory, np.zeros(11), np.zeros(11))
+    resumed.close()
+    assert recording_parts(tmp_path) == [tmp_path / "recording.rrd", tmp_path / "recording.1.rrd"]
+    assert (tmp_path / "recording.rrd").stat().st_size == size  # the first part is untouched
+    names, _ = blueprint_names(tmp_path / "recording.1.rrd")[-1]
+    assert {"trial 0", "trial 1", "trial 2"} <= names

@@ -58,6 +58,8 @@ class RerunStreamer(TrialObserver):
             on ``trial_k/system`` along the ``time`` timeline.
         state_names: the state components' names (``MechanicalSystem.state_names``), for
             the plots' titles; ``x{i}`` alone where missing.
+        new_part: where ``filename`` exists (a resumed run), write ``<stem>.<k>.rrd`` next
+            to it rather than overwrite it (:func:`free_part`); a replay overwrites.
     """
 
     wants_particles = True
@@ -71,12 +73,15 @@ class RerunStreamer(TrialObserver):
         max_particles: int = 100,
         sketch: Callable[[np.ndarray], np.ndarray | None] | None = None,
         state_names: Sequence[str] = (),
+        new_part: bool = True,
     ) -> None:
         if mode not in ("save", "connect"):
             raise ConfigError(f"tracking.rerun.mode must be save or connect, got {mode!r}")
         if max_particles < 1:
             raise ConfigError(f"tracking.rerun.max_particles must be >= 1, got {max_particles}")
         self.path = Path(run_dir) / filename
+        if mode == "save" and new_part:
+            self.path = free_part(self.path)
         self.max_particles = max_particles
         self.recording = rr.RecordingStream("mcpilco", recording_id=str(Path(run_dir).resolve()))
         if mode == "save":
@@ -112,6 +117,9 @@ class RerunStreamer(TrialObserver):
         )
 
     def run_started(self, metadata: Mapping[str, str], resumed_after: int) -> None:
+        """The config as text; a resumed run's blueprint also lists the trials 0..K of the
+        earlier parts (their data are in the earlier files of the same recording)."""
+        self._trials = list(range(resumed_after + 1))
         text = metadata.get("config", "")
         self.recording.log(
             "run/config", rr.TextDocument(text, media_type=rr.MediaType.TEXT), static=True
@@ -192,6 +200,28 @@ class RerunStreamer(TrialObserver):
     def close(self) -> None:
         self.recording.flush()
         self.recording.disconnect()
+
+
+def free_part(path: Path) -> Path:
+    """``path`` if it does not exist, else the first free ``<stem>.<k>.rrd`` (k = 1, 2, ...):
+    a resumed run adds a part to its recording (the same recording id: the viewer merges the
+    parts it is given) instead of overwriting the trials already recorded."""
+    part, k = path, 0
+    while part.exists():
+        k += 1
+        part = path.with_name(f"{path.stem}.{k}{path.suffix}")
+    return part
+
+
+def recording_parts(run_dir: Path, filename: str = "recording.rrd") -> list[Path]:
+    """The parts of a run's recording (``recording.rrd``, ``recording.1.rrd``, ...) in order."""
+    first = run_dir / filename
+    parts = []
+    while (
+        part := first if not parts else first.with_name(f"{first.stem}.{len(parts)}.rrd")
+    ).exists():
+        parts.append(part)
+    return parts
 
 
 def run_blueprint(
