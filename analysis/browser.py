@@ -224,7 +224,8 @@ class DevTools:
         self.connection: ClientConnection | None = None
 
     def __enter__(self) -> DevTools:
-        self.connection = connect(self.url, max_size=None, open_timeout=self.timeout)
+        connection = connect(self.url, max_size=None, open_timeout=self.timeout)
+        self.connection = connection.__enter__()
         return self
 
     def __exit__(
@@ -234,7 +235,7 @@ class DevTools:
         tb: TracebackType | None,
     ) -> None:
         if self.connection is not None:
-            self.connection.close()
+            self.connection.__exit__(kind, error, tb)
 
     def call(self, method: str, **params: Any) -> dict[str, Any]:
         """Send one command and return its ``result`` (events in between are dropped).
