@@ -36,8 +36,8 @@ screenshot: $(STAMP)  ## RUN=<run dir>: its Rerun recording in the web viewer (h
 	$(PY) -m analysis.screenshot $(RUN) $(ARGS)
 
 lint: $(STAMP)  ## ruff
-	$(VENV)/bin/ruff check mcpilco runners analysis tests
-	$(VENV)/bin/ruff format --check mcpilco runners analysis tests
+	$(VENV)/bin/ruff check mcpilco runners analysis tests hydra_plugins
+	$(VENV)/bin/ruff format --check mcpilco runners analysis tests hydra_plugins
 
 clean:  ## remove the virtual environment and caches
 	rm -rf $(VENV) .pytest_cache .ruff_cache

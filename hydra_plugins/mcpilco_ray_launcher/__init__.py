@@ -1,0 +1,1 @@
+"""mcpilco's Hydra launcher for Ray clusters (``hydra/launcher=ray``); see ``ray_launcher``."""
