@@ -69,15 +69,13 @@ def refusal(chosen: dict[str, str]) -> str | None:
     """The one-line error an inconsistent choice must stop with (None: it must build)."""
     system = chosen["system"]
     tracking = system in TRACKING_SYSTEMS
-    if chosen.get("model") == "derivative_free" and tracking:
-        return "tracking task"
-    if chosen.get("model") == "derivative_free" and chosen.get("estimator", "none") != "none":
-        return "estimator=none"  # DF learns from raw readings
     if chosen.get("model") == "true_dynamics" and system not in TORCH_ODE_SYSTEMS:
         return "torch equations of motion"
     if chosen.get("kernel") == "sp" and system not in BASIS_SYSTEMS:
         return "needs a physical basis"
-    if chosen.get("cost") == "tracking" and not tracking:
+    if chosen.get("model") == "derivative_free" and chosen.get("estimator", "none") != "none":
+        return "estimator=none"  # DF learns from raw readings
+    if chosen.get("cost") in ("tracking", "tracking_positions") and not tracking:
         return "needs a tracking task"
     if chosen.get("exploration") == "pd" and not tracking:
         return "needs a tracking task"
@@ -133,7 +131,7 @@ def test_every_independent_option_builds_with_every_system(choice: tuple[str, st
 @pytest.mark.parametrize("extra", [[], ["simulate_estimator=false"], ["kernel=sp"]])
 def test_experiment_presets_build(experiment: str, extra: list[str]) -> None:
     cfg = make_config(f"+experiment={experiment}", *extra)
-    if experiment == "ur5" and "kernel=sp" in extra:  # the UR5 has no physical basis
+    if experiment in ("ur5", "ur5_df") and "kernel=sp" in extra:  # the UR5 has no basis
         with pytest.raises(ConfigError, match="needs a physical basis"):
             build(cfg)
         return

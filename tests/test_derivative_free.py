@@ -131,3 +131,26 @@ def test_policy_angle_columns_hold_sin_and_cos_of_the_angle(inputs: str) -> None
     for sin_column, cos_column in model.policy_angle_columns:
         assert features[sin_column].item() == pytest.approx(sin(1.1))
         assert features[cos_column].item() == pytest.approx(cos(1.1))
+
+
+def test_known_coordinates_move_by_the_command_and_get_no_gp() -> None:
+    """Ball-and-plate DF (§4.4.2): the motors turn by u exactly; GPs only for the ball."""
+    from mcpilco.systems import BallAndPlate
+
+    system = BallAndPlate(measured_indices=[0, 1, 4, 5])
+    model = DerivativeFree(system, None, None, None, m_q=2, m_u=1, known_coordinates=True)
+    assert model.output_names == ["d_q0", "d_q1"]
+    readings = np.array(
+        [[0.01, 0.02, 0.0, 0.0], [0.015, 0.02, 0.01, -0.02], [0.02, 0.03, 0.03, -0.03]]
+    )
+    actions = np.array([[0.01, -0.02], [0.02, -0.01]])
+    _, targets = model.dataset([readings], [actions])
+    np.testing.assert_allclose(targets.numpy(), [[0.005, 0.0], [0.005, 0.01]], atol=1e-12)
+    particles = torch.tensor([[0.1, 0.2, 0.3, 0.4, 0.09, 0.19, 0.28, 0.41, 0.08, 0.18, 0.27,
+                               0.42, 0.5, 0.6]], dtype=torch.float64)  # fmt: skip
+    u = torch.tensor([[0.05, -0.07]], dtype=torch.float64)
+    deltas = torch.tensor([[0.01], [-0.02]], dtype=torch.float64)  # [G=2, M=1]
+    following = model.transition(particles, u, deltas)
+    np.testing.assert_allclose(following[0, :4].numpy(), [0.11, 0.18, 0.35, 0.33], atol=1e-12)
+    np.testing.assert_allclose(following[0, 4:12].numpy(), particles[0, :8].numpy())  # shifted
+    np.testing.assert_allclose(following[0, 12:].numpy(), [0.05, -0.07])  # u_{t-1} := u_t

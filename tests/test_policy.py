@@ -151,3 +151,13 @@ def test_per_column_centre_ranges_bound_each_column(generator: torch.Generator) 
 def test_bad_centre_range_names_the_key(bad: object) -> None:
     with pytest.raises(ConfigError, match="policy.centre_range"):
         SquashedRBFPolicy(4, 1, 1.0, centre_range=bad)  # type: ignore[arg-type]
+
+
+def test_sum_of_sines_with_equal_amplitudes() -> None:
+    from mcpilco.policies import SumOfSinesExploration
+
+    rng = np.random.default_rng(0)
+    sines = SumOfSinesExploration(10.0, 2, rng, 1 / 30, num_sines=10, equal_amplitudes=True)
+    np.testing.assert_allclose(sines.amplitudes, 1.0)  # u_max / 10 each
+    peak = max(np.abs(sines(np.zeros(2), k)).max() for k in range(3000))
+    assert peak <= 10.0 + 1e-12

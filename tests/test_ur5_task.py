@@ -166,3 +166,44 @@ def test_bad_ur5_actuation_names_the_key() -> None:
         UR5(joint_damping=[1.0, 2.0])
     with pytest.raises(ConfigError, match="system.gear"):
         UR5(gear=0.0)
+
+
+def test_positions_only_tracking_cost_against_its_formula(ur5: UR5) -> None:
+    """The DF UR5's cost (§4.3): 1 − exp(−‖e‖²), whatever the velocity error."""
+    cost = TrackingCost(ur5, position_scale=1.0, velocity_scale=None)
+    reference = torch.as_tensor(ur5.reference.states)
+    offset = torch.zeros(12, dtype=torch.float64)
+    offset[2], offset[5], offset[9] = 0.3, 0.4, 50.0  # ‖e‖ = 0.5 rad, huge velocity error
+    np.testing.assert_allclose(cost(reference + offset).numpy(), 1 - np.exp(-0.25), rtol=1e-12)
+
+
+def test_pd_on_angles_alone_uses_backward_differences_and_draws_its_gains() -> None:
+    ur5 = UR5(measured_indices=[0, 1, 2, 3, 4, 5])
+    rng = np.random.default_rng(3)
+    draw = np.random.default_rng(3)
+    kp, kd = draw.uniform(0.5, 2.0), draw.uniform(0.01, 0.2)  # the same stream, in order
+    pd = PDExploration(100.0, 6, rng, ur5, kp_range=[0.5, 2.0], kd_range=[0.01, 0.2])
+    np.testing.assert_allclose([pd.kp[0], pd.kd[0]], [kp, kd], rtol=1e-15)
+    reference = ur5.reference.states
+    angles = [reference[0, :6] + 0.01, reference[1, :6] + 0.03]
+    first = pd(angles[0], 0)  # no earlier reading: velocity 0
+    np.testing.assert_allclose(first, kp * (reference[0, :6] - angles[0]) + kd * reference[0, 6:])
+    second = pd(angles[1], 1)
+    velocity = (angles[1] - angles[0]) / ur5.dt
+    expected = kp * (reference[1, :6] - angles[1]) + kd * (reference[1, 6:] - velocity)
+    np.testing.assert_allclose(second, expected, rtol=1e-12)
+    with pytest.raises(ConfigError, match="exploration.kp_range"):
+        PDExploration(1.0, 6, rng, ur5, kp_range=[2.0, 0.5])
+
+
+def test_derivative_free_policy_reads_the_position_errors_from_its_readings() -> None:
+    from mcpilco.models import DerivativeFree
+
+    ur5 = UR5(measured_indices=[0, 1, 2, 3, 4, 5])
+    model = DerivativeFree(ur5, None, None, None, m_q=2, m_u=1)
+    assert model.policy_input_size == model.policy_input_dim + 6  # e_t only, no ė
+    readings = torch.tensor(ur5.reference.positions[7])[None].repeat(3, 1) + 0.1
+    inputs = torch.zeros(3, model.policy_input_dim, dtype=torch.float64)
+    extended = model.with_tracking_errors(inputs, readings, 7)
+    np.testing.assert_allclose(extended[:, -6:].numpy(), -0.1, atol=1e-12)
+    np.testing.assert_array_equal(extended[:, :-6].numpy(), 0.0)

@@ -96,8 +96,13 @@ class ModelStructure(nn.Module, ABC):
     def policy_input_size(self) -> int:
         """What the policy reads: :meth:`policy_inputs`, plus the error to the reference
         state (``d_x``) on a tracking task (:meth:`with_tracking_errors`)."""
-        tracking = 0 if self._reference is None else self.system.state_dim
+        tracking = 0 if self._reference is None else self.tracking_dim
         return self.policy_input_dim + tracking
+
+    @property
+    def tracking_dim(self) -> int:
+        """Tracking-error columns the policy reads on a tracking task: the whole state's."""
+        return self.system.state_dim
 
     @property
     def policy_angle_columns(self) -> list[tuple[int, int]]:

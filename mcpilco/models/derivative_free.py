@@ -20,6 +20,9 @@ class DerivativeFree(ModelStructure):
     """GPs predict position changes Δq_t = q_{t+1} − q_t from a history of positions and
     inputs; no velocity is ever estimated.
 
+    On a tracking task (the UR5, §4.3) the policy also reads the position error
+    e_t = q_ref,t − q̄_t to the system's reference, from its readings.
+
     A particle is ``[q_t, q_{t−1}, …, q_{t−m_q}, u_{t−1}, …, u_{t−m_u}]`` (``[M, S]`` with
     S = d_q (m_q+1) + d_u m_u); particles start at rest (q_0 = q_{−1} = …, past inputs 0).
     With ``inputs="differences"`` (eq. 4.2–4.3) the features are
@@ -35,8 +38,13 @@ class DerivativeFree(ModelStructure):
     reads the history of simulated noisy readings q̄ = q + e of each particle (thesis §4.1),
     as it reads the real readings on the system.
 
+    With ``known_coordinates`` the coordinates the system moves deterministically (the
+    ball-and-plate's position-controlled motors, q_{t+1} = q_t + u_t) get no GP: their next
+    positions come from the system's ``known_transition``.
+
     Args:
         m_q: position memory (≥ 1). m_u: input memory (≥ 0).
+        known_coordinates: take the system's known coordinates from it instead of GPs.
         inputs: ``differences`` or ``naive``. difference_units: ``per_step`` or
         ``per_second`` (ignored with ``inputs=naive``). Others: see :class:`ModelStructure`.
     """
@@ -50,6 +58,7 @@ class DerivativeFree(ModelStructure):
         m_u: int = 1,
         inputs: str = "differences",
         difference_units: str = "per_step",
+        known_coordinates: bool = False,
         **kwargs: object,
     ) -> None:
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
@@ -65,11 +74,6 @@ class DerivativeFree(ModelStructure):
                 f"got {difference_units!r}"
             )
         system = self.system
-        if system.reference_states is not None:
-            raise ConfigError(
-                f"model=derivative_free does not support tracking tasks such as "
-                f"{type(system).__name__}'s (its policy reads no tracking error yet)"
-            )
         positions = list(system.position_indices)
         missing = [i for i in positions if i not in system.sensors.measured]
         if missing:
@@ -78,6 +82,12 @@ class DerivativeFree(ModelStructure):
                 f"{list(system.sensors.measured)} lacks {missing}"
             )
         self.m_q, self.m_u, self.inputs = m_q, m_u, inputs
+        self.known = tuple(system.known_coordinates) if known_coordinates else ()
+        if known_coordinates and not self.known:
+            raise ConfigError(
+                f"model.known_coordinates=true but {type(system).__name__} knows no coordinate"
+            )
+        self.learned = [k for k in range(len(positions)) if k not in self.known]
         self.difference_scale = 1.0 / system.dt if difference_units == "per_second" else 1.0
         self.num_positions = len(positions)
         self.reading_columns = [list(system.sensors.measured).index(i) for i in positions]
@@ -90,7 +100,7 @@ class DerivativeFree(ModelStructure):
     # ------------------------------------------------------------------- layout
     @property
     def output_names(self) -> list[str]:
-        return [f"d_q{i}" for i in self.system.position_indices]
+        return [f"d_q{self.system.position_indices[k]}" for k in self.learned]
 
     @property
     def _history_size(self) -> int:
@@ -141,13 +151,19 @@ class DerivativeFree(ModelStructure):
         return torch.cat([features, actions, self._past_inputs(particles)], dim=-1)
 
     def gp_targets(self, positions: torch.Tensor) -> torch.Tensor:
-        return positions[1:] - positions[:-1]
+        return (positions[1:] - positions[:-1])[..., self.learned]
 
     def transition(
         self, particles: torch.Tensor, actions: torch.Tensor, deltas: torch.Tensor
     ) -> torch.Tensor:
-        history = self._positions(particles)
-        following = history[..., 0, :] + deltas.T
+        current = self._positions(particles)[..., 0, :]
+        if not self.known:
+            return self._shift(particles, current + deltas.T, actions)
+        learned = current[..., self.learned] + deltas.T
+        known, _ = self.system.known_transition(self.physical_state(particles), actions, self.known)
+        columns = dict(zip(self.learned, learned.unbind(-1), strict=True))
+        columns |= dict(zip(self.known, known.unbind(-1), strict=True))
+        following = torch.stack([columns[k] for k in range(self.num_positions)], dim=-1)
         return self._shift(particles, following, actions)
 
     def _shift(
@@ -177,6 +193,22 @@ class DerivativeFree(ModelStructure):
 
     def policy_inputs(self, particles: torch.Tensor) -> torch.Tensor:
         return self.encode(particles)
+
+    @property
+    def tracking_dim(self) -> int:
+        """Position errors only: a DF policy reads e_t, no velocity error (thesis §4.3)."""
+        return self.num_positions
+
+    def with_tracking_errors(
+        self, inputs: torch.Tensor, readings: torch.Tensor, step: int
+    ) -> torch.Tensor:
+        """Policy inputs ``[M, d_π]`` extended by e_t = q_ref(step) − q̄_t, from the readings
+        ``[M, d_y]`` the policy sees (thesis §4.3, the UR5); unchanged without a reference."""
+        if self._reference is None:
+            return inputs
+        positions = readings[..., self.reading_columns]
+        reference = self._reference[step, list(self.system.position_indices)]
+        return torch.cat([inputs, reference - positions], dim=-1)
 
     def closed_loop_state(
         self,
@@ -237,4 +269,5 @@ class DerivativeFree(ModelStructure):
         start = self.policy_input_dim
         action = gp_inputs[..., start : start + self.system.action_dim]
         basis = self.system.velocity_basis(self.features.encode(state), action)  # [d_q, N, P]
-        return torch.cat([velocities.movedim(-1, 0).unsqueeze(-1), basis], dim=-1)
+        bases = torch.cat([velocities.movedim(-1, 0).unsqueeze(-1), basis], dim=-1)
+        return bases[self.learned] if self.known else bases

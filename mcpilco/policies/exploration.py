@@ -54,6 +54,8 @@ class SumOfSinesExploration(ExplorationController):
         u_max: action bound. action_dim: d_u. rng: random source (the system's).
         dt: sampling time in s. num_sines: terms per component.
         amplitude: peak bound of the sum (default u_max).
+        equal_amplitudes: every term gets amplitude / num_sines (the DF Furuta's "ten
+            cosine waves of random frequencies and same amplitudes", §4.4.1).
     """
 
     def __init__(
@@ -66,6 +68,7 @@ class SumOfSinesExploration(ExplorationController):
         min_frequency_hz: float = 0.1,
         max_frequency_hz: float = 2.0,
         amplitude: float | None = None,
+        equal_amplitudes: bool = False,
     ) -> None:
         if num_sines < 1 or not 0 <= min_frequency_hz < max_frequency_hz < 0.5 / dt:
             raise ConfigError(
@@ -75,6 +78,8 @@ class SumOfSinesExploration(ExplorationController):
             )
         peak = u_max if amplitude is None else min(amplitude, u_max)
         weights = rng.uniform(0.0, 1.0, size=(action_dim, num_sines))
+        if equal_amplitudes:
+            weights = np.ones_like(weights)
         self.amplitudes = peak * weights / weights.sum(-1, keepdims=True)
         self.frequencies = rng.uniform(min_frequency_hz, max_frequency_hz, (action_dim, num_sines))
         self.phases = rng.uniform(0.0, 2 * np.pi, size=(action_dim, num_sines))

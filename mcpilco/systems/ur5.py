@@ -216,12 +216,16 @@ class UR5(MechanicalSystem):
 class PDExploration(ExplorationController):
     """τ = K_P (q_ref − q) + K_D (q̇_ref − q̇) on the measurement, clipped to ±u_max — the
     thesis's "poorly tuned" PD exploration of the UR5 (gains are per joint or one for all).
+    Where only the joint angles are read (DF, §4.3), q̇ is their backward difference.
 
     Args:
-        u_max: torque bound. action_dim: number of joints. rng: unused (deterministic).
-        system: a tracking task with full-state readings ``[q, q̇]`` (its
-            ``reference_states`` ``[T+1, 2 d_u]``).
+        u_max: torque bound. action_dim: number of joints. rng: draws the gains when ranges
+            are given (the system's stream: the seed decides them).
+        system: a tracking task (its ``reference_states`` ``[T+1, 2 d_u]``) read as
+            ``[q, q̇]`` or ``[q]``.
         kp: N m/rad. kd: N m s/rad.
+        kp_range, kd_range: ``[low, high]``: draw one K_P ~ U(low, high) and one K_D for all
+            joints instead (§4.3: U(0.5, 2) and U(0.01, 0.2), new gains per repetition).
     """
 
     def __init__(
@@ -232,16 +236,33 @@ class PDExploration(ExplorationController):
         system: MechanicalSystem,
         kp: float | Sequence[float] = 1.0,
         kd: float | Sequence[float] = 0.1,
+        kp_range: Sequence[float] | None = None,
+        kd_range: Sequence[float] | None = None,
     ) -> None:
         if system.reference_states is None:
             raise ConfigError(f"exploration=pd needs a tracking task, not {type(system).__name__}")
+        for name, bounds in (("kp_range", kp_range), ("kd_range", kd_range)):
+            if bounds is not None and not (len(bounds) == 2 and 0 <= bounds[0] <= bounds[1]):
+                raise ConfigError(f"exploration.{name} must be [low, high], got {bounds!r}")
+        if kp_range is not None:
+            kp = float(rng.uniform(*kp_range))
+        if kd_range is not None:
+            kd = float(rng.uniform(*kd_range))
         self.u_max, self.reference = u_max, np.asarray(system.reference_states)
         self.kp = np.broadcast_to(np.asarray(kp, dtype=np.float64), (action_dim,))
         self.kd = np.broadcast_to(np.asarray(kd, dtype=np.float64), (action_dim,))
+        self.dt = system.dt
+        self._previous: np.ndarray | None = None
 
     def __call__(self, measurement: np.ndarray, step: int) -> np.ndarray:
         target = self.reference[min(step, self.reference.shape[0] - 1)]
-        error = target - measurement
         joints = self.kp.shape[0]
-        torque = self.kp * error[:joints] + self.kd * error[joints:]
+        angles = measurement[:joints]
+        if measurement.shape[0] >= 2 * joints:
+            velocities = measurement[joints : 2 * joints]
+        else:  # angles only: backward differences (zero at the first sample)
+            previous = angles if step == 0 or self._previous is None else self._previous
+            velocities = (angles - previous) / self.dt
+        self._previous = angles.copy()
+        torque = self.kp * (target[:joints] - angles) + self.kd * (target[joints:] - velocities)
         return np.clip(torque, -self.u_max, self.u_max)
