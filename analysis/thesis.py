@@ -120,6 +120,7 @@ def _configuration(config: dict[str, Any]) -> str:
     dropout = config["optimizer"]["schedule"]["dropout"] > 0
     scales = [term.get("length_scale") for term in config["cost"].get("terms", [])]
     cost = "l=(" + ",".join(_number(s) for s in scales if s is not None) + ")"
-    return ", ".join(
-        [name, kernel_label(config["kernel"]), "dropout" if dropout else "no dropout", cost]
-    )
+    parts = [name, kernel_label(config["kernel"]), "dropout" if dropout else "no dropout", cost]
+    if config["optimizer"].get("horizon_stages"):  # not in the thesis: named wherever it is used
+        parts.append("horizon curriculum")
+    return ", ".join(parts)

@@ -146,6 +146,10 @@ def test_configuration_labels_name_the_thesis_rows() -> None:
         ("+experiment=cartpole_pms",): "PMS S.I., SE, dropout, l=(3,1)",
         ("protocol=quick", "kernel=sp"): "S.I., PI+SE, dropout, l=(3,1) [quick]",
         ("+experiment=furuta_pms",): "FurutaPendulum: PMS S.I., SE, dropout, l=()",
+        ("+experiment=furuta_pms_curriculum", "kernel=sp"): (
+            "FurutaPendulum: PMS S.I., PI+SE, dropout, l=(), horizon curriculum"
+        ),
+        ("+experiment=furuta_df",): "FurutaPendulum: DF m_q=2 m_u=1, SE, dropout, l=()",
     }
     for overrides, label in cases.items():
         with initialize_config_dir(version_base="1.3", config_dir=str(ROOT / "conf")):
