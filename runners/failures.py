@@ -69,6 +69,8 @@ def run_reporting_failures(action: Callable[[], None], run_dir: Path, resume_hin
         if isinstance(error, KeyboardInterrupt):
             hint = f": resume={run_dir}" if resume_hint else ""
             log.error("interrupted; the finished trials are kept%s", hint)
+            if single:  # the traceback is in failed.txt; the console gets the line alone
+                sys.exit(130)
         elif isinstance(error, EXPECTED_ERRORS):
             kind = "configuration error" if isinstance(error, ConfigError) else "run stopped"
             log.error("%s: %s", kind, error)
