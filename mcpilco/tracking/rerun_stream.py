@@ -93,6 +93,7 @@ class RerunStreamer(TrialObserver):
         self.state_names = tuple(state_names)
         self._trials: list[int] = []
         self._state_dim = 0
+        self._extent: dict[str, tuple[tuple[float, float], tuple[float, float]]] = {}
 
     def _scalars(
         self, entity: str, times: np.ndarray, values: np.ndarray, kind: str | None = None
@@ -156,12 +157,22 @@ class RerunStreamer(TrialObserver):
         self.recording.send_blueprint(self.blueprint(), make_active=True, make_default=True)
 
     def _segments(self, entity: str, times: np.ndarray, drawing: np.ndarray) -> None:
-        """Line segments ``drawing [T, S, 2, 2]`` (metres) per time ``times [T]`` seconds."""
+        """Line segments ``drawing [T, S, 2, 2]`` (metres, y up) per time ``times [T]``
+        seconds, drawn 2 UI points wide; y is flipped for Rerun's 2-D views (y down)."""
         steps, segments = drawing.shape[:2]
-        strips = np.ascontiguousarray(drawing, dtype=np.float32).reshape(steps * segments, 2, 2)
-        columns = rr.LineStrips2D.columns(strips=list(strips)).partition([segments] * steps)
+        flipped = np.array(drawing, dtype=np.float32) * np.array([1.0, -1.0], dtype=np.float32)
+        strips = flipped.reshape(steps * segments, 2, 2)
+        columns = rr.LineStrips2D.columns(
+            strips=list(strips), radii=np.full(steps * segments, -2.0, dtype=np.float32)
+        ).partition([segments] * steps)  # negative radii: UI points
         self.recording.send_columns(
             entity, indexes=[rr.TimeColumn("time", duration=times)], columns=columns
+        )
+        low, high = flipped.reshape(-1, 2).min(0), flipped.reshape(-1, 2).max(0)
+        margin = 0.1 * float((high - low).max()) + 1e-3
+        self._extent[entity] = (
+            (float(low[0]) - margin, float(high[0]) + margin),
+            (float(low[1]) - margin, float(high[1]) + margin),
         )
 
     def blueprint(self) -> rrb.Blueprint:
@@ -169,7 +180,9 @@ class RerunStreamer(TrialObserver):
         names = [
             self.state_names[i] if i < len(self.state_names) else "" for i in range(self._state_dim)
         ]
-        return run_blueprint(sorted(self._trials, reverse=True), names, self.sketch is not None)
+        return run_blueprint(
+            sorted(self._trials, reverse=True), names, self.sketch is not None, self._extent
+        )
 
     def optimized(self, trial: int, trace: Mapping[str, list[float]]) -> None:
         steps = np.arange(len(trace["cost"])) + self._optimization_steps
@@ -225,7 +238,10 @@ def recording_parts(run_dir: Path, filename: str = "recording.rrd") -> list[Path
 
 
 def run_blueprint(
-    trials: Sequence[int], state_names: Sequence[str], drawing: bool
+    trials: Sequence[int],
+    state_names: Sequence[str],
+    drawing: bool,
+    extents: Mapping[str, tuple[tuple[float, float], tuple[float, float]]] | None = None,
 ) -> rrb.Blueprint:
     """A run's Rerun layout.
 
@@ -233,6 +249,7 @@ def run_blueprint(
         trials: the trials to show, one tab each, in this order (the first is shown).
         state_names: one per state component (``""`` where unnamed); a plot each.
         drawing: whether ``trial_k/system`` holds the system's drawing.
+        extents: per drawing entity, the (x, y) ranges its view shows (the whole motion).
     """
     tabs: list[rrb.Container | rrb.View] = []
     for trial in trials:
@@ -250,9 +267,17 @@ def run_blueprint(
             origin=f"/trial_{trial}",
             contents=["+ $origin/cost", "+ $origin/particle_cost"],
         )
-        side = (
-            [rrb.Spatial2DView(name="system", origin=f"/trial_{trial}/system")] if drawing else []
-        )
+        side = []
+        if drawing:
+            extent = (extents or {}).get(f"trial_{trial}/system")
+            bounds = (
+                None if extent is None else rrb.VisualBounds2D(x_range=extent[0], y_range=extent[1])
+            )
+            side.append(
+                rrb.Spatial2DView(
+                    name="system", origin=f"/trial_{trial}/system", visual_bounds=bounds
+                )
+            )
         tabs.append(
             rrb.Horizontal(
                 rrb.Grid(*plots),
