@@ -20,6 +20,7 @@ import pandas as pd
 import pytest
 
 from tests.test_runner import run_module
+from tests.test_sweeps import TINY_SWEEP
 
 pytest.importorskip("ray")
 pytestmark = pytest.mark.slow  # about 1.5 min: two Ray nodes start, then two sweeps
@@ -27,16 +28,8 @@ pytestmark = pytest.mark.slow  # about 1.5 min: two Ray nodes start, then two sw
 RAY = str(Path(sys.executable).parent / "ray")
 NODE = ["--node-ip-address=127.0.0.1", "--num-cpus=1", "--object-store-memory=100000000"]
 SWEEP = [
-    "--multirun",
+    *TINY_SWEEP[:-2],  # the local sweep test's tiny runs, without its seed and kernel axes
     "hydra/launcher=ray",
-    "num_trials=1",
-    "threads=1",
-    "compile=false",
-    "optimizer.num_particles=8",
-    "optimizer.max_steps=3",
-    "optimizer.max_steps_first_trial=3",
-    "policy.num_basis=10",
-    "system.trial_duration=0.5",
     "seed=0,1",
     "system.dt=0.05,-0.05",  # the two jobs with dt < 0 fail before any work
 ]
