@@ -14,12 +14,14 @@ BAND = 0.95
 def calibration(
     particles: np.ndarray, real: np.ndarray, names: Sequence[str] = ()
 ) -> dict[str, float]:
-    """Calibration figures of one trial, over the steps t = 1..T (t = 0 is the sampled
-    initial state).
+    """Calibration figures of one trial, over the steps t = 1..T' of the real rollout (t = 0
+    is the sampled initial state; T' < T where the rollout was cut short, e.g. the ball
+    leaving the plate; no step left gives NaN figures).
 
     Args:
         particles: the final policy's particles on the model ``[T+1, M, d_x]``.
-        real: the real rollout's states ``[T+1, d_x]`` (the same policy on the system).
+        real: the real rollout's states ``[T'+1, d_x]`` (the same policy on the system),
+            T' ≤ T.
         names: a name per state component (``x0``, ``x1``, ... when missing).
 
     Returns:
@@ -29,16 +31,20 @@ def calibration(
         mean and variance (nats; a floor of 1e-12 on the variance); ``coverage_mean``,
         ``nll_mean``: their means over components. A calibrated model covers ≈ 0.95.
     """
-    if particles.ndim != 3 or real.ndim != 2 or particles.shape[0] != real.shape[0]:
+    if particles.ndim != 3 or real.ndim != 2 or not 1 <= real.shape[0] <= particles.shape[0]:
         raise ValueError(
-            f"calibration needs particles [T+1, M, d] and real [T+1, d], got "
+            f"calibration needs particles [T+1, M, d] and real [T'+1, d] with T' <= T, got "
             f"{particles.shape} and {real.shape}"
         )
     if particles.shape[2] != real.shape[1]:
         raise ValueError(
             f"particles have {particles.shape[2]} components, the rollout {real.shape[1]}"
         )
-    predicted, observed = particles[1:], real[1:]
+    predicted, observed = particles[1 : real.shape[0]], real[1:]
+    if observed.shape[0] == 0:
+        labels = [short_name(names, i) for i in range(real.shape[1])]
+        keys = [f"{kind}_{label}" for kind in ("coverage", "nll") for label in labels]
+        return dict.fromkeys([*keys, "coverage_mean", "nll_mean"], math.nan)
     low, high = np.quantile(predicted, [(1 - BAND) / 2, (1 + BAND) / 2], axis=1)
     inside = (observed >= low) & (observed <= high)  # [T, d]
     mean = predicted.mean(axis=1)

@@ -109,6 +109,22 @@ def test_calibration_of_a_synthetic_case_with_known_coverage(spread: float) -> N
 def test_calibration_rejects_mismatched_shapes() -> None:
     with pytest.raises(ValueError, match="components"):
         calibration(np.zeros((5, 10, 3)), np.zeros((5, 2)))
+    with pytest.raises(ValueError, match="T' <= T"):
+        calibration(np.zeros((5, 10, 2)), np.zeros((6, 2)))
+
+
+def test_calibration_of_a_rollout_cut_short_uses_its_own_steps() -> None:
+    """The ball-and-plate's rollout ends where the ball leaves the plate: the figures are
+    those of the particles' first T' steps against it (and NaN with no step at all)."""
+    rng = np.random.default_rng(1)
+    particles = rng.standard_normal((91, 500, 2))
+    real = np.zeros((15, 2))
+    real[1:8] = 5.0  # far outside the band at 7 of the 14 compared steps
+    figures = calibration(particles, real)
+    assert figures["coverage_x0"] == pytest.approx(0.5)
+    assert figures == calibration(particles[:15], real)
+    empty = calibration(particles, np.zeros((1, 2)))
+    assert set(empty) == set(figures) and all(math.isnan(v) for v in empty.values())
 
 
 def test_report_names_and_calibrates_the_comparison_rows() -> None:
