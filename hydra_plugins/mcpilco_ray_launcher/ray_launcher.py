@@ -55,8 +55,9 @@ class RayLauncher(Launcher):
     """Runs a sweep's jobs as Ray tasks.
 
     Args:
-        address: the cluster to join (``HOST:PORT`` of its head, or ``auto``); ``None``
-            starts a Ray instance on this machine for the sweep.
+        address: the cluster to join (``HOST:PORT`` of its head, or ``auto`` for the one
+            running on this machine); ``None`` starts a new Ray instance here for the sweep
+            (never a stale or foreign one found on the machine).
         num_cpus: CPUs reserved per job (match ``threads``).
         init: further keyword arguments of ``ray.init`` (e.g. ``runtime_env``).
     """
@@ -93,7 +94,7 @@ class RayLauncher(Launcher):
         init.setdefault("include_dashboard", False)
         init.setdefault("log_to_driver", True)
         log.info("Ray: %s", f"joining {self.address}" if self.address else "a local instance")
-        ray.init(address=self.address, **init)
+        ray.init(address=self.address or "local", **init)  # "local": always a new one
 
     def launch(
         self, job_overrides: Sequence[Sequence[str]], initial_job_idx: int
