@@ -251,18 +251,26 @@ def test_ctrl_c_writes_failed_txt_and_keeps_finished_trials(tmp_path: Path) -> N
             f"hydra.run.dir={tmp_path}",
         ],
         cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        # a shell's background job (e.g. `.ci/run &`) ignores SIGINT, and the child would
+        # inherit that: Ctrl-C is what is tested, so the child gets the default handler
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )  # fmt: skip
-    summary = tmp_path / "summary.csv"
-    deadline = time.monotonic() + 300
-    while not (summary.is_file() and len(pd.read_csv(summary)) >= 2):
-        assert process.poll() is None and time.monotonic() < deadline, process.communicate()
-        time.sleep(0.2)
-    # still running (1000 trials: a loaded machine that starves this loop cannot let the
-    # run finish before the signal, as 20 trials once did in CI)
-    assert process.poll() is None
-    process.send_signal(signal.SIGINT)
-    stdout, stderr = process.communicate(timeout=300)
-    assert process.returncode == 130, stderr[-2000:]  # 128 + SIGINT, without a traceback on the console
+    try:
+        summary = tmp_path / "summary.csv"
+        deadline = time.monotonic() + 300
+        while not (summary.is_file() and len(pd.read_csv(summary)) >= 2):
+            assert process.poll() is None and time.monotonic() < deadline, process.communicate()
+            time.sleep(0.2)
+        assert process.poll() is None  # 1000 trials: still running when the signal comes
+        process.send_signal(signal.SIGINT)
+        stdout, stderr = process.communicate(timeout=300)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
+    assert process.returncode == 130, stderr[
+        -2000:
+    ]  # 128 + SIGINT, without a traceback on the console
     assert "interrupted; the finished trials are kept" in stdout + stderr
     assert "Traceback" not in stdout + stderr
     assert "KeyboardInterrupt" in (tmp_path / "failed.txt").read_text()
