@@ -88,6 +88,10 @@ class DerivativeFree(ModelStructure):
                 f"model.known_coordinates=true but {type(system).__name__} knows no coordinate"
             )
         self.learned = [k for k in range(len(positions)) if k not in self.known]
+        reference = None if self._reference is None else self._reference[:, positions]
+        self.register_buffer("_reference_positions", reference, persistent=False)  # [T+1, d_q]
+        # columns of [learned, known] back in position order (one gather per step)
+        self._learned_known_order = np.argsort(self.learned + list(self.known)).tolist()
         self.difference_scale = 1.0 / system.dt if difference_units == "per_second" else 1.0
         self.num_positions = len(positions)
         self.reading_columns = [list(system.sensors.measured).index(i) for i in positions]
@@ -161,9 +165,7 @@ class DerivativeFree(ModelStructure):
             return self._shift(particles, current + deltas.T, actions)
         learned = current[..., self.learned] + deltas.T
         known, _ = self.system.known_transition(self.physical_state(particles), actions, self.known)
-        columns = dict(zip(self.learned, learned.unbind(-1), strict=True))
-        columns |= dict(zip(self.known, known.unbind(-1), strict=True))
-        following = torch.stack([columns[k] for k in range(self.num_positions)], dim=-1)
+        following = torch.cat([learned, known], dim=-1)[..., self._learned_known_order]
         return self._shift(particles, following, actions)
 
     def _shift(
@@ -207,8 +209,7 @@ class DerivativeFree(ModelStructure):
         if self._reference is None:
             return inputs
         positions = readings[..., self.reading_columns]
-        reference = self._reference[step, list(self.system.position_indices)]
-        return torch.cat([inputs, reference - positions], dim=-1)
+        return torch.cat([inputs, self._reference_positions[step] - positions], dim=-1)
 
     def closed_loop_state(
         self,
