@@ -54,6 +54,9 @@ def check_top_level(cfg: DictConfig) -> tuple[torch.dtype, torch.device]:
     """Validate the keys outside the groups; one-line errors naming key and value."""
     if cfg.dtype not in DTYPES:
         raise ConfigError(f"dtype={cfg.dtype!r} must be one of {sorted(DTYPES)}")
+    rollout = cfg.get("rollout_dtype")
+    if rollout is not None and rollout not in DTYPES:
+        raise ConfigError(f"rollout_dtype={rollout!r} must be null or one of {sorted(DTYPES)}")
     if not isinstance(cfg.seed, int) or cfg.seed < 0:
         raise ConfigError(f"seed={cfg.seed!r} must be a non-negative integer")
     if not isinstance(cfg.num_trials, int) or cfg.num_trials < 1:
@@ -131,6 +134,7 @@ def build(cfg: DictConfig) -> Experiment:
         exploration=exploration_factory(make(cfg.exploration), system),
         simulate_estimator=bool(cfg.get("simulate_estimator", True)),
         compile=bool(cfg.get("compile", False)),
+        rollout_dtype=None if cfg.get("rollout_dtype") is None else DTYPES[cfg.rollout_dtype],
     )
     components.exploration(rng=np.random.default_rng(0))  # its errors too, before any work
     components.optimizer.check(  # the search refuses components it cannot work with
@@ -141,6 +145,7 @@ def build(cfg: DictConfig) -> Experiment:
             components.cost,
             estimator,
             components.simulate_estimator,
+            dtype=components.rollout_dtype,
         )
     )
     return Experiment(components, streams, cfg.num_trials, dtype, device)

@@ -19,6 +19,7 @@ from mcpilco.errors import NonFiniteError, NotPositiveDefiniteError, SimulationE
 from mcpilco.estimators.base import StateEstimator
 from mcpilco.models.base import ModelStructure
 from mcpilco.optim.base import PolicySearch, StepInfo
+from mcpilco.optim.convergence import steps_to_final
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
 from mcpilco.policies.rbf import SquashedRBFPolicy
@@ -49,6 +50,9 @@ class Components:
     simulate_estimator: bool = True
     compile: bool = False
     """torch.compile the particle step (see :class:`ParticleRollout`)."""
+    rollout_dtype: torch.dtype | None = None
+    """The particles' dtype in policy optimisation (None: the run's ``dtype``; float32 with
+    float64: the mixed setting, see :class:`ParticleRollout`)."""
 
 
 class TrialLoop:
@@ -78,7 +82,14 @@ class TrialLoop:
         self.num_trials = num_trials
         c = components
         self.rollout = ParticleRollout.for_system(
-            c.system, c.model, c.policy, c.cost, c.estimator, c.simulate_estimator, c.compile
+            c.system,
+            c.model,
+            c.policy,
+            c.cost,
+            c.estimator,
+            c.simulate_estimator,
+            c.compile,
+            c.rollout_dtype,
         )
         self.trajectories: list[Trajectory] = []
 
@@ -155,6 +166,7 @@ class TrialLoop:
                 "optimization_steps": result.steps,
                 "optimization_seconds": optimization_seconds,
                 "final_particle_cost": result.costs[-1] if result.costs else float("nan"),
+                "steps_to_final": steps_to_final(result.costs),
                 "policy_restarts": result.restarts,
                 "rollout_seconds": rollout_seconds,
                 "logging_seconds": logging_seconds,

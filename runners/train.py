@@ -41,6 +41,8 @@ def check_same_run(cfg: DictConfig, run_dir: Path) -> None:
     for key in MACHINE_KEYS:
         saved.pop(key, None)
         current.pop(key, None)
+    for key in [k for k, v in current.items() if v is None and k not in saved]:
+        current.pop(key)  # a key added since (e.g. rollout_dtype), left at its null default
     if saved != current:
         raise ConfigError(
             f"hydra.run.dir={str(run_dir)!r} holds a different run; pick a new directory "

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -15,15 +16,27 @@ from mcpilco.gp.prediction import (
     VARIANCE_FLOOR,
     mean_and_quadratic,
     posterior_sample,
+    precision_floor,
     solve_matrix,
+    whitened_mean_and_quadratic,
+    whitened_posterior_sample,
 )
 from mcpilco.kernels.base import Kernel, PreparedKernel
+
+WHITENED_DTYPES = (torch.float32, torch.float16, torch.bfloat16)
+"""Predictions in these dtypes use the whitened form (see :mod:`mcpilco.gp.prediction`)."""
 
 
 @dataclass
 class _PredictionCache:
+    """What predictions at fixed training data reuse, in one dtype: either the inverse form
+    (``solve`` = [Γ⁻¹ | α] ``[G, N, N+1]``, float64) or the whitened form (``factor`` L
+    ``[G, N, N]`` and ``whitened_targets`` β = L⁻¹ y ``[G, N]``, float32)."""
+
     kernel: PreparedKernel  # x* [M, D] -> (k(x*, X) [G, M, N], k(x*, x*) [G, M])
-    solve: torch.Tensor  # [Γ⁻¹ | α]: [G, N, N+1]
+    solve: torch.Tensor | None = None
+    factor: torch.Tensor | None = None
+    whitened_targets: torch.Tensor | None = None
 
 
 class ExactGP(nn.Module):
@@ -57,7 +70,7 @@ class ExactGP(nn.Module):
         self.output_names = list(output_names or [f"y{i}" for i in range(outputs)])
         self.register_buffer("train_inputs", torch.zeros(0, kernel.shape.input_dim))
         self.register_buffer("train_targets", torch.zeros(0, outputs))
-        self._cache: _PredictionCache | None = None
+        self._caches: dict[torch.dtype, _PredictionCache] = {}
 
     @property
     def num_outputs(self) -> int:
@@ -76,7 +89,7 @@ class ExactGP(nn.Module):
             )
         self.train_inputs = inputs.detach()
         self.train_targets = targets.detach()
-        self._cache = None
+        self._caches = {}
 
     def _gram_factor(self) -> torch.Tensor:
         inputs = self.train_inputs
@@ -96,44 +109,93 @@ class ExactGP(nn.Module):
 
     @torch.no_grad()
     def precompute(self) -> None:
-        """Factorise once after fitting; predictions then reuse Γ⁻¹ and α."""
+        """Factorise once after fitting (in the GP's own dtype); predictions then reuse it.
+        Predictions in another dtype (a float32 rollout of a float64 GP) get their cache
+        from this factorisation, cast (:meth:`_prediction_cache`)."""
+        dtype = self.train_inputs.dtype
         factor = self._gram_factor()
+        self._caches = {dtype: self._cache_from(factor, self.kernel, dtype)}
+
+    def _cache_from(
+        self, factor: torch.Tensor, kernel: Kernel, dtype: torch.dtype
+    ) -> _PredictionCache:
+        """The prediction cache in ``dtype`` from the Cholesky factor of Γ (any dtype) and a
+        kernel already in ``dtype``."""
+        targets = self.train_targets.T.unsqueeze(-1).to(factor.dtype)  # [G, N, 1]
+        prepared = kernel.prepare(self.train_inputs.to(dtype))
+        if dtype in WHITENED_DTYPES:
+            whitened = torch.linalg.solve_triangular(factor, targets, upper=False).squeeze(-1)
+            return _PredictionCache(
+                prepared,
+                factor=factor.to(dtype).contiguous(),
+                whitened_targets=whitened.to(dtype).contiguous(),
+            )
         inverse_gram = torch.cholesky_inverse(factor)
-        alpha = torch.matmul(inverse_gram, self.train_targets.T.unsqueeze(-1)).squeeze(-1)
-        self._cache = _PredictionCache(
-            self.kernel.prepare(self.train_inputs), solve_matrix(inverse_gram, alpha)
-        )
+        alpha = torch.matmul(inverse_gram, targets).squeeze(-1)
+        return _PredictionCache(prepared, solve=solve_matrix(inverse_gram, alpha).to(dtype))
 
     def posterior_weights(self) -> tuple[torch.Tensor, torch.Tensor]:
         """Γ⁻¹ ``[G, N, N]`` and α = Γ⁻¹ y ``[G, N]`` of the fitted GP (no gradient)."""
-        solve = self._prediction_cache().solve
-        return solve[..., :-1], solve[..., -1]
+        cache = self._prediction_cache(self.train_inputs.dtype)
+        if cache.solve is not None:
+            return cache.solve[..., :-1], cache.solve[..., -1]
+        assert cache.factor is not None and cache.whitened_targets is not None
+        alpha = torch.linalg.solve_triangular(
+            cache.factor.mT, cache.whitened_targets.unsqueeze(-1), upper=True
+        )
+        return torch.cholesky_inverse(cache.factor), alpha.squeeze(-1)
 
     def predict(self, inputs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Posterior of the latent function at ``inputs [M, D]``.
+        """Posterior of the latent function at ``inputs [M, D]``, computed in their dtype.
 
         Returns:
             mean ``[G, M]`` and variance ``[G, M]`` (output-major; without observation
             noise).
             Differentiable w.r.t. ``inputs``; hyper-parameters are held fixed.
         """
-        cache = self._prediction_cache()
+        cache = self._prediction_cache(inputs.dtype)
         cross, prior_variance = cache.kernel(inputs)  # [G, M, N], [G, M]
-        mean, quadratic = mean_and_quadratic(cross, cache.solve)
+        if cache.solve is not None:
+            mean, quadratic = mean_and_quadratic(cross, cache.solve)
+        else:
+            assert cache.factor is not None and cache.whitened_targets is not None
+            mean, quadratic = whitened_mean_and_quadratic(
+                cross, cache.factor, cache.whitened_targets
+            )
+            floor = precision_floor(prior_variance, cache.factor.shape[-1])
+            return mean, torch.maximum(prior_variance - quadratic, floor)
         return mean, (prior_variance - quadratic).clamp_min(VARIANCE_FLOOR)
 
     def sample(self, inputs: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
         """Reparameterised posterior sample ``mean + std ⊙ noise`` ``[G, M]`` at
-        ``inputs [M, D]`` with standard-normal ``noise [G, M]`` (one fused op)."""
-        cache = self._prediction_cache()
+        ``inputs [M, D]`` with standard-normal ``noise [G, M]`` (one fused op), computed in
+        the inputs' dtype (float64: inverse form; float32: whitened form)."""
+        cache = self._prediction_cache(inputs.dtype)
         cross, prior_variance = cache.kernel(inputs)
-        return posterior_sample(cross, prior_variance, cache.solve, noise)
+        if cache.solve is not None:
+            return posterior_sample(cross, prior_variance, cache.solve, noise)
+        assert cache.factor is not None and cache.whitened_targets is not None
+        return whitened_posterior_sample(
+            cross, prior_variance, cache.factor, cache.whitened_targets, noise
+        )
 
-    def _prediction_cache(self) -> _PredictionCache:
-        if self._cache is None:
+    def _prediction_cache(self, dtype: torch.dtype) -> _PredictionCache:
+        """The cache for predictions in ``dtype``: the GP's own (factorised on first use) or
+        one cast from it (kernel copied into ``dtype``, Γ factorised in the GP's dtype)."""
+        if self.train_inputs.dtype not in self._caches:
             self.precompute()
-        assert self._cache is not None
-        return self._cache
+        if dtype not in self._caches:
+            with torch.no_grad():
+                factor = self._gram_factor()
+                self._caches[dtype] = self._cache_from(factor, self._kernel_in(dtype), dtype)
+        return self._caches[dtype]
+
+    def _kernel_in(self, dtype: torch.dtype) -> Kernel:
+        """A copy of the kernel with its hyper-parameters in ``dtype`` (the basis functions
+        of a physically-inspired kernel, which belong to the model, are shared)."""
+        shared = {id(m.shape): m.shape for m in self.kernel.modules() if isinstance(m, Kernel)}
+        twin = copy.deepcopy(self.kernel, memo=shared)
+        return twin.to(dtype).requires_grad_(False)
 
     def hyperparameters(self) -> dict[str, list[float]]:
         """Constrained hyper-parameter values by name, for logs."""

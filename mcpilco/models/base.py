@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
@@ -255,6 +256,28 @@ class ModelStructure(nn.Module, ABC):
             raise RuntimeError("model.step called before model.fit")
         deltas = self.gp.sample(self.gp_inputs(particles, actions, encoded), noise)
         return self.transition(particles, actions, deltas)
+
+    def in_dtype(self, dtype: torch.dtype) -> ModelStructure:
+        """This model for particles in ``dtype`` (a float32 rollout of a float64 model):
+        ``self`` when it is in ``dtype`` already, else a shallow twin whose constant buffers
+        (transition maps, feature selections, references) are cast and whose GP is this
+        model's own (its predictions follow their inputs' dtype, from the float64
+        factorisation: :meth:`ExactGP.sample`). Fitting and checkpoints stay with ``self``;
+        a twin is stale after the next :meth:`fit` (its ``gp`` is the old one)."""
+        if dtype == self._dtype_probe.dtype:
+            return self
+        twin = copy.copy(self)
+        twin._buffers = {  # a new dict: the twin's buffers are its own
+            name: b.to(dtype) if b is not None and b.is_floating_point() else b
+            for name, b in self._buffers.items()
+        }
+        twin._modules = {
+            name: module
+            if isinstance(module, ExactGP) or module is None
+            else copy.deepcopy(module).to(dtype)
+            for name, module in self._modules.items()
+        }
+        return twin
 
     def checkpoint(self) -> dict[str, torch.Tensor]:
         """The fitted model's state to save after a trial (:meth:`load_gp` restores it)."""

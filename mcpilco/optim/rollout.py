@@ -58,6 +58,12 @@ class ParticleRollout:
             machine). Results agree with eager execution to rounding. Building a compiling
             rollout clears PyTorch's in-memory compile caches (``torch._dynamo.reset``),
             so that graphs of earlier runs in the process do not use up its limit.
+        dtype: the particles' dtype (None: the policy's). ``float32`` with a float64 model
+            and policy is the mixed setting (``rollout_dtype=float32``): the GP stays fitted
+            and factorised in float64, the rollout (features, policy, cross-covariances,
+            GP sample and their backward) runs in float32 with the whitened variance
+            (:mod:`mcpilco.gp.prediction`), the cost is summed in float64, and the gradient
+            reaches the float64 policy parameters.
     """
 
     def __init__(
@@ -72,6 +78,7 @@ class ParticleRollout:
         sensors: Sensors | None = None,
         initial_uniform: bool = False,
         compile: bool = False,
+        dtype: torch.dtype | None = None,
     ) -> None:
         self.initial_uniform = initial_uniform
         self.compile = compile
@@ -86,9 +93,12 @@ class ParticleRollout:
         self.policy = policy
         self.cost = cost
         self.estimator = estimator
-        self.initial_mean = initial_mean
-        self.initial_std = initial_std
+        self.result_dtype = initial_mean.dtype
+        self.dtype = initial_mean.dtype if dtype is None else dtype
+        self.initial_mean = initial_mean.to(self.dtype)
+        self.initial_std = initial_std.to(self.dtype)
         self.horizon = horizon
+        self._twin: ModelStructure | None = None
 
     @classmethod
     def for_system(
@@ -100,11 +110,12 @@ class ParticleRollout:
         estimator: StateEstimator,
         simulate_estimator: bool = True,
         compile: bool = False,
+        dtype: torch.dtype | None = None,
     ) -> ParticleRollout:
-        """A rollout from the system's p(x0) over one trial, in the policy's dtype/device;
-        with ``simulate_estimator`` false the policy sees the particles instead of online
-        estimates of their simulated readings (MC-PILCO instead of MC-PILCO4PMS);
-        ``compile``: see the class."""
+        """A rollout from the system's p(x0) over one trial, on the policy's device, in
+        ``dtype`` (None: the policy's); with ``simulate_estimator`` false the policy sees
+        the particles instead of online estimates of their simulated readings (MC-PILCO
+        instead of MC-PILCO4PMS); ``compile``, ``dtype``: see the class."""
         like = next(policy.parameters())
         return cls(
             model=model,
@@ -117,6 +128,7 @@ class ParticleRollout:
             sensors=system.sensors if simulate_estimator else None,
             initial_uniform=system.initial_distribution == "uniform",
             compile=compile,
+            dtype=dtype,
         )
 
     def __call__(
@@ -131,14 +143,15 @@ class ParticleRollout:
         the same random numbers repeated for each copy, block after block, e.g. one block
         per candidate policy of a population, which ``act`` then tells apart; dropout is
         not allowed then). ``act``: the policy's ``prepare(dropout)`` unless given."""
-        like = {"dtype": self.initial_mean.dtype, "device": self.initial_mean.device}
+        # drawn in the model's dtype and cast: a float32 rollout sees the float64 one's numbers
+        like = {"dtype": self.result_dtype, "device": self.initial_mean.device}
         dim = self.initial_mean.shape[0]
         if copies > 1 and dropout > 0:
             raise ValueError("a rollout with copies > 1 takes no dropout")
-        start = torch.randn(num_particles, dim, generator=generator, **like)
+        start = torch.randn(num_particles, dim, generator=generator, **like).to(self.dtype)
         noise = torch.randn(
             self.horizon, self.model.num_outputs, num_particles, generator=generator, **like
-        )
+        ).to(self.dtype)
         bits = (
             self.policy.dropout_bits(self.horizon, num_particles, generator)
             if dropout > 0
@@ -154,9 +167,10 @@ class ParticleRollout:
                     None if uniform is None else uniform.repeat(1, copies, 1),
                 )
             num_particles *= copies
-        act = self.policy.prepare(dropout) if act is None else act
-        particles = self.model.initial_particles(self.initial_states(start))
-        states = [self.model.physical_state(particles)]
+        act = self.policy.prepare(dropout, self.dtype) if act is None else act
+        model = self.stepping_model()
+        particles = model.initial_particles(self.initial_states(start))
+        states = [model.physical_state(particles)]
         memory = self.estimator.online_reset(num_particles, particles)
         seen: torch.Tensor | None = None  # what the policy reads (a history for DF models)
         actions: torch.Tensor | None = None
@@ -184,10 +198,22 @@ class ParticleRollout:
                     noise[t],
                     t,
                 )
-            states.append(self.model.physical_state(particles))
-        trajectory = torch.stack(states)  # [T+1, M, d_x]
+            states.append(model.physical_state(particles))
+        trajectory = torch.stack(states).to(self.result_dtype)  # [T+1, M, d_x]
         step_costs = self.cost(trajectory).mean(-1)  # [T+1]
         return RolloutResult(step_costs.sum(), step_costs, trajectory)
+
+    def stepping_model(self) -> ModelStructure:
+        """The model the particles go through: :attr:`model` itself, or its twin in the
+        rollout's dtype (kept across trials, its GP re-pointed after each fit, so compiled
+        graphs see one object)."""
+        if self.dtype == self.result_dtype:
+            return self.model
+        if self._twin is None:
+            self._twin = self.model.in_dtype(self.dtype)
+        if self._twin.gp is not self.model.gp:
+            self._twin.gp = self.model.gp
+        return self._twin
 
     def _state_step(
         self,
@@ -200,13 +226,14 @@ class ParticleRollout:
         """Next particles ``[M, S]`` when the policy sees the particle itself: its features
         are encoded once for both the policy and the GP input. ``bits`` ``[M, n_b]`` (or
         None), ``noise`` ``[G, M]``."""
-        encoded = self.model.encode(particles)
-        policy_inputs = self.model.policy_inputs_from_encoded(encoded)
-        policy_inputs = self.model.with_tracking_errors(
-            policy_inputs, self.model.physical_state(particles), step
+        model = self.stepping_model()
+        encoded = model.encode(particles)
+        policy_inputs = model.policy_inputs_from_encoded(encoded)
+        policy_inputs = model.with_tracking_errors(
+            policy_inputs, model.physical_state(particles), step
         )
         actions = act(policy_inputs, bits)
-        return self.model.step(particles, actions, noise, encoded)
+        return model.step(particles, actions, noise, encoded)
 
     def _reading_step(
         self,
@@ -226,14 +253,13 @@ class ParticleRollout:
         with fictitious noise (``gaussian`` ``[M, d_y]``, quantisation ``uniform``), the
         estimator steps, the policy acts on the estimate (a history for DF models)."""
         assert self.sensors is not None
-        reading = self.sensors.simulate(self.model.physical_state(particles), gaussian, uniform)
+        model = self.stepping_model()
+        reading = self.sensors.simulate(model.physical_state(particles), gaussian, uniform)
         estimate, memory = self.estimator.online_step(reading, memory)
-        seen = self.model.closed_loop_state(seen, estimate, actions)
-        policy_inputs = self.model.with_tracking_errors(
-            self.model.policy_inputs(seen), estimate, step
-        )
+        seen = model.closed_loop_state(seen, estimate, actions)
+        policy_inputs = model.with_tracking_errors(model.policy_inputs(seen), estimate, step)
         actions = act(policy_inputs, bits)
-        return self.model.step(particles, actions, noise), memory, seen, actions
+        return model.step(particles, actions, noise), memory, seen, actions
 
     def _run(self, function: Callable[..., Any], compiled: bool, *args: Any) -> Any:
         """``function(*args)``, through ``torch.compile`` if the rollout compiles,
@@ -267,6 +293,7 @@ class ParticleRollout:
         if self.sensors is None or (self.estimator.is_identity and not self.model.sees_readings):
             return None
         shape = (self.horizon, num_particles, self.sensors.reading_dim)
-        gaussian = torch.randn(shape, generator=generator, **like)
-        uniform = torch.rand(shape, generator=generator, **like) if self.sensors.quantised else None
-        return gaussian, uniform
+        gaussian = torch.randn(shape, generator=generator, **like).to(self.dtype)
+        if not self.sensors.quantised:
+            return gaussian, None
+        return gaussian, torch.rand(shape, generator=generator, **like).to(self.dtype)

@@ -243,7 +243,9 @@ class SquashedRBFPolicy(nn.Module):
         draws.random_(-(2**63), 2**63 - 1, generator=generator)
         return draws.view(torch.uint8)[:count].view(steps, batch, self.num_basis)
 
-    def prepare(self, dropout: float = 0.0) -> Callable[..., torch.Tensor]:
+    def prepare(
+        self, dropout: float = 0.0, dtype: torch.dtype | None = None
+    ) -> Callable[..., torch.Tensor]:
         """``act(inputs [M, d_π], bits [M, n_b] | None) ↦ actions [M, d_u]`` with the scaled
         centres and the dropout scaling computed once (call again after every parameter
         update).
@@ -251,14 +253,20 @@ class SquashedRBFPolicy(nn.Module):
         With ``bits`` (from :meth:`dropout_bits`) a basis is dropped when its byte is below
         round(256 p_d), i.e. with probability p_d rounded to a multiple of 1/256 (exact for
         the schedule's 0.25 and 0.125); kept ones are scaled by 1/(1 − p_d). The threshold
-        is a tensor, so one compiled graph serves every p_d > 0.
+        is a tensor, so one compiled graph serves every p_d > 0. ``dtype``: compute in it
+        (None: the parameters' dtype); a cast is differentiable, so gradients reach the
+        parameters in their own dtype (a float32 rollout of a float64 policy).
         """
-        inverse = torch.exp(-self.log_lengthscale)
-        scaled_centres = self.centres * inverse  # [n_b, d_π]
+        centres, log_lengthscale, raw_weights = (
+            p if dtype is None else p.to(dtype)
+            for p in (self.centres, self.log_lengthscale, self.weights)
+        )
+        inverse = torch.exp(-log_lengthscale)
+        scaled_centres = centres * inverse  # [n_b, d_π]
         twice_centres_t = (2.0 * scaled_centres).T.contiguous()  # [d_π, n_b]
         centre_offset = -scaled_centres.square().sum(-1)  # [n_b]
         threshold = round(dropout * 256)
-        weights = self.weights / (self.u_max * (1.0 - threshold / 256))
+        weights = raw_weights / (self.u_max * (1.0 - threshold / 256))
         below = torch.tensor(threshold - 1, dtype=weights.dtype, device=weights.device)
         u_max, masked = self.u_max, threshold > 0  # no int in the closure: one graph
         if self.squash == "sine":
@@ -330,8 +338,11 @@ class SquashedRBFPolicy(nn.Module):
         u_max, squash = self.u_max, self.squash
 
         def act(inputs: torch.Tensor, bits: torch.Tensor | None = None) -> torch.Tensor:
-            z = inputs.view(count, -1, dim) * inverse  # [P, M, d]
-            actions = _squashed(z, twice_t, offset, scaled_weights, u_max, squash)
+            like = inputs.dtype  # the rollout's (float32 in the mixed setting)
+            z = inputs.view(count, -1, dim) * inverse.to(like)  # [P, M, d]
+            actions = _squashed(
+                z, twice_t.to(like), offset.to(like), scaled_weights.to(like), u_max, squash
+            )
             return actions.reshape(-1, outputs)
 
         return act
