@@ -6,7 +6,7 @@ TORCH  := torch==2.13.0
 STAMP  := $(VENV)/.installed
 TEST_WORKERS ?= auto   # pytest-xdist workers (one per core); 0 runs the tests in one process
 
-.PHONY: help install train test test-slow bench screenshot lint clean
+.PHONY: help install train test test-slow bench bench-trial screenshot lint clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  %-10s %s\n", $$1, $$2}'
@@ -31,6 +31,9 @@ test-slow: $(STAMP)  ## run the long learning tests too
 
 bench: $(STAMP)  ## time one policy-optimisation step and a GP fit
 	$(PY) -m runners.bench $(ARGS)
+
+bench-trial: $(STAMP)  ## time trial 1 at thesis settings, float64 and mixed (minutes)
+	$(PY) -m runners.bench_trial $(ARGS)
 
 screenshot: $(STAMP)  ## RUN=<run dir>: its Rerun recording in the web viewer (headless Chromium) -> PNG
 	$(PY) -m analysis.screenshot $(RUN) $(ARGS)

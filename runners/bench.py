@@ -3,7 +3,8 @@
 Prints, for one policy-optimisation step (particle rollout + backward + Adam) of the
 cart-pole speed-integration SE model at M=400, T=60, n_b=200:
 the median wall time over ``--steps`` steps after warm-up for n = 60 and n = 300 training
-points in float64 and float32, the rollout's achieved GFLOP/s (flops counted analytically
+points in float64, float32 and the mixed setting (float64 GP, float32 rollout), eager and
+compiled, and again compiled with one thread when torch has more, the rollout's achieved GFLOP/s (flops counted analytically
 from the dominant products, see :func:`rollout_flops`), the machine's own float64 matmul
 GFLOP/s measured in the same run, the GP fit time at n = 300 against the reference
 recipe (1500 full-batch Adam steps at learning rate 0.01), the per-call latency of the
@@ -114,8 +115,10 @@ def time_steps(
     setting: tuple[str, ...] = CARTPOLE,
     compile: bool = False,
 ) -> StepTiming:
-    """Time ``steps`` optimisation steps after ``warmup`` untimed ones."""
-    overrides = [f"dtype={dtype}", *setting, f"device={device}", f"compile={compile}"]
+    """Time ``steps`` optimisation steps after ``warmup`` untimed ones; ``dtype`` is
+    ``float64``, ``float32`` or ``mixed`` (float64 GP, float32 rollout)."""
+    dtypes = ["dtype=float64", "rollout_dtype=float32"] if dtype == "mixed" else [f"dtype={dtype}"]
+    overrides = [*dtypes, *setting, f"device={device}", f"compile={compile}"]
     with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
         cfg = compose("train", overrides=overrides)
     experiment = build(cfg)
@@ -127,7 +130,7 @@ def time_steps(
         c.model.gp.set_data(c.model.gp.train_inputs[:n], c.model.gp.train_targets[:n])
         c.model.gp.precompute()
     rollout = ParticleRollout.for_system(
-        c.system, c.model, c.policy, c.cost, c.estimator, compile=compile
+        c.system, c.model, c.policy, c.cost, c.estimator, compile=compile, dtype=c.rollout_dtype
     )
     optimizer = torch.optim.Adam(c.policy.parameters(), lr=0.01)
     particles = c.optimizer.num_particles
@@ -229,7 +232,7 @@ def main() -> None:
     )
     timings = {}
     for n in (60, 300):
-        for dtype in ("float64", "float32"):
+        for dtype in ("float64", "float32", "mixed"):
             for compiled in (False, True):
                 timing = time_steps(
                     dtype, n, args.steps, args.warmup, args.device, compile=compiled
@@ -237,9 +240,20 @@ def main() -> None:
                 timings[n, dtype, compiled] = timing
                 mode = f"compiled (warm-up {timing.warmup:4.1f} s)" if compiled else "eager"
                 print(  # noqa: T201
-                    f"  n={n:3d} {dtype}: median {timing.median * 1e3:7.1f} ms/step over "
+                    f"  n={n:3d} {dtype:7s}: median {timing.median * 1e3:7.1f} ms/step over "
                     f"{args.steps} steps, rollout {timing.gflops:5.2f} GFLOP/s, {mode}"
                 )
+    threads = torch.get_num_threads()
+    if threads > 1 and args.device == "cpu":
+        torch.set_num_threads(1)
+        print("the same with one thread (as a sweep's jobs run), compiled:")  # noqa: T201
+        for n in (60, 300):
+            for dtype in ("float64", "float32", "mixed"):
+                timing = time_steps(dtype, n, args.steps, args.warmup, compile=True)
+                print(  # noqa: T201
+                    f"  n={n:3d} {dtype:7s}: median {timing.median * 1e3:7.1f} ms/step, 1 thread"
+                )
+        torch.set_num_threads(threads)
     print(f"machine float64 matmul (again): {matmul_gflops():.1f} GFLOP/s")  # noqa: T201
     reference = timings[60, "float64", True]
     overhead, fraction = logging_overhead(reference.median, reference.prediction)
