@@ -1,16 +1,16 @@
 """Performance figures: ``make bench`` (or ``python -m runners.bench``).
 
 Prints, for one policy-optimisation step (particle rollout + backward + Adam) of the
-cart-pole speed-integration SE model at M=400, T=60, n_b=200:
-the median wall time over ``--steps`` steps after warm-up for n = 60 and n = 300 training
-points in float64, float32 and the mixed setting (float64 GP, float32 rollout), eager and
-compiled, and again compiled with one thread when torch has more, the rollout's achieved GFLOP/s (flops counted analytically
-from the dominant products, see :func:`rollout_flops`), the machine's own float64 matmul
-GFLOP/s measured in the same run, the GP fit time at n = 300 against the reference
-recipe (1500 full-batch Adam steps at learning rate 0.01), the per-call latency of the
-torque controllers of ``runners.control`` at n = 5000 (:mod:`runners.bench_control`), and
-the wall time of a whole
-``protocol=quick`` cart-pole run per phase (``--skip-run`` leaves it out: it takes minutes).
+cart-pole speed-integration SE model at M=400, T=60, n_b=200: the median wall time over
+``--steps`` steps after warm-up for n = 60 and n = 300 training points in float64, float32
+and the mixed setting (float64 GP, float32 rollout), eager and compiled, and again compiled
+with one thread when torch has more; the rollout's achieved GFLOP/s (flops counted
+analytically from the dominant products, see :func:`rollout_flops`), the machine's own
+float64 matmul GFLOP/s measured in the same run, the GP fit time at n = 300 against the
+reference recipe (1500 full-batch Adam steps at learning rate 0.01), the per-call latency
+of the torque controllers of ``runners.control`` at n = 5000 (:mod:`runners.bench_control`),
+and the wall time of a whole ``protocol=quick`` cart-pole run per phase (``--skip-run``
+leaves it out: it takes minutes). ``make bench-trial`` times trial 1 at thesis settings.
 """
 
 from __future__ import annotations
