@@ -142,3 +142,39 @@ def test_without_a_curriculum_the_whole_trial_uses_the_full_horizon() -> None:
 def test_bad_horizon_stages_name_the_key(stages: object) -> None:
     with pytest.raises(ConfigError, match="optimizer.horizon_stages"):
         PolicyOptimizer(horizon_stages=stages)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("compiled_ms", "eager_ms", "eager_chosen"), [(90.0, 120.0, False), (500.0, 450.0, True)]
+)
+def test_compile_choice_keeps_whichever_the_first_steps_timed_faster(
+    compiled_ms: float, eager_ms: float, eager_chosen: bool
+) -> None:
+    from types import SimpleNamespace
+
+    from mcpilco.optim.compile_choice import CompileChoice
+
+    rollout = SimpleNamespace(compile=True, eager_chosen=True)
+    choice = CompileChoice(rollout, warmup=2, timed=3)  # type: ignore[arg-type]
+    modes = []
+    for step in range(12):
+        choice.before(step)
+        modes.append("eager" if rollout.eager_chosen else "compiled")
+        choice.after(step, (eager_ms if rollout.eager_chosen else compiled_ms) / 1e3)
+    # warm-up and timed compiled steps, timed eager steps, then the faster way for good
+    assert modes[:8] == ["compiled"] * 5 + ["eager"] * 3
+    assert modes[8:] == ["eager" if eager_chosen else "compiled"] * 4
+    assert choice.decided and rollout.eager_chosen is eager_chosen
+
+
+def test_compile_choice_leaves_a_rollout_that_does_not_compile_alone() -> None:
+    from types import SimpleNamespace
+
+    from mcpilco.optim.compile_choice import CompileChoice
+
+    rollout = SimpleNamespace(compile=False, eager_chosen=False)
+    choice = CompileChoice(rollout)  # type: ignore[arg-type]
+    for step in range(10):
+        choice.before(step)
+        choice.after(step, 1.0)
+    assert choice.decided and not rollout.eager_chosen and not choice.eager_seconds

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 
@@ -17,6 +18,7 @@ from mcpilco.optim.base import (
     StepInfo,
     require_positive_integers,
 )
+from mcpilco.optim.compile_choice import CompileChoice
 from mcpilco.optim.monitor import MonitoringSchedule
 from mcpilco.optim.rollout import ParticleRollout
 
@@ -147,8 +149,11 @@ class PolicyOptimizer(PolicySearch):
         schedule = MonitoringSchedule(**schedule_options)
         optimizer = torch.optim.Adam(policy.parameters(), lr=schedule.learning_rate)
         failures = 0
+        choice = CompileChoice(rollout)
         with frozen(model):
-            for _ in range(limit):
+            for step in range(limit):
+                started = time.perf_counter()
+                choice.before(step)
                 dropout = max(schedule.dropout, 0.0)
                 optimizer.zero_grad(set_to_none=True)
                 total = rollout(self.num_particles, dropout, generator).total_cost
@@ -166,6 +171,7 @@ class PolicyOptimizer(PolicySearch):
                 failures = 0
                 total.backward()
                 optimizer.step()
+                choice.after(step, time.perf_counter() - started)
                 cost = float(total.detach())
                 event = schedule.update(cost)
                 if event.reduced and self.restart_adam_on_reduction:

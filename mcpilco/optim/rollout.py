@@ -82,6 +82,7 @@ class ParticleRollout:
     ) -> None:
         self.initial_uniform = initial_uniform
         self.compile = compile
+        self.eager_chosen = False  # set by a :class:`CompileChoice` that timed eager faster
         self._compiled: dict[str, Callable[..., Any]] = {}
         if compile:
             # PyTorch caps the graphs kept per function (8); graphs of an earlier run in
@@ -266,7 +267,7 @@ class ParticleRollout:
         ``compiled`` holds and gradients are recorded (a gradient-free rollout, e.g. the
         particle prediction the loggers store, runs once per trial: not worth a graph);
         a compiler failure switches compilation off with a warning."""
-        if not (self.compile and compiled and torch.is_grad_enabled()):
+        if not (self.compile and not self.eager_chosen and compiled and torch.is_grad_enabled()):
             return function(*args)
         name = function.__name__
         if name not in self._compiled:
