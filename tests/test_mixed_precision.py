@@ -144,3 +144,30 @@ def test_mixed_twin_follows_refits_and_keeps_the_model_in_float64() -> None:
 def test_a_bad_rollout_dtype_is_refused_before_any_work() -> None:
     with pytest.raises(ConfigError, match="rollout_dtype='float16'"):
         cartpole("rollout_dtype=float16")
+
+
+def test_a_gp_out_of_float32_range_is_rolled_out_in_float64_with_a_warning(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A float64 fit may leave a term with length-scale 1e-46 and variance 1e-101 (measured
+    on a UR5 DF model): its inverse length-scale overflows float32 and every prediction
+    would be NaN. That GP is rolled out in float64 until the next fit."""
+    built = cartpole("rollout_dtype=float32")
+    c = built.components
+    c.model.fit(*exploration_data(built, 40))
+    assert c.model.gp is not None
+    with torch.no_grad():
+        c.model.gp.kernel.log_lengthscale[0, 0] = -105.0
+        c.model.gp.kernel.log_variance[0] = -233.0
+    c.model.gp.precompute()
+    assert not c.model.gp.predicts_in(torch.float32)
+    rollout = ParticleRollout.for_system(
+        c.system, c.model, c.policy, c.cost, c.estimator, dtype=c.rollout_dtype
+    )
+    with caplog.at_level("WARNING"):
+        cost, gradient = cost_and_gradient(rollout, 50)
+    assert "not finite in torch.float32" in caplog.text
+    assert rollout.dtype == torch.float64 and rollout.stepping_model() is c.model
+    assert np.isfinite(cost) and bool(torch.isfinite(gradient).all())
+    c.model.fit(*exploration_data(built, 40))  # a new fit: float32 again
+    assert rollout.stepping_model() is not c.model and rollout.dtype == torch.float32

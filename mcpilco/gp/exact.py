@@ -190,6 +190,21 @@ class ExactGP(nn.Module):
                 self._caches[dtype] = self._cache_from(factor, self._kernel_in(dtype), dtype)
         return self._caches[dtype]
 
+    @torch.no_grad()
+    def predicts_in(self, dtype: torch.dtype) -> bool:
+        """Whether predictions in ``dtype`` are finite: the kernel's hyper-parameters, cast,
+        stay in its range and its covariances at the training inputs come out finite. A
+        float64 fit can leave a length-scale at 1e-46 (an irrelevant term: its variance
+        1e-101), whose inverse overflows float32 (measured on a UR5 DF model)."""
+        cache = self._prediction_cache(dtype)
+        cross, prior = cache.kernel(self.train_inputs.to(dtype))
+        tensors = [
+            cross,
+            prior,
+            *(t for t in (cache.factor, cache.whitened_targets) if t is not None),
+        ]
+        return all(bool(torch.isfinite(t).all()) for t in tensors)
+
     def _kernel_in(self, dtype: torch.dtype) -> Kernel:
         """A copy of the kernel with its hyper-parameters in ``dtype`` (the basis functions
         of a physically-inspired kernel, which belong to the model, are shared)."""

@@ -95,11 +95,13 @@ class ParticleRollout:
         self.cost = cost
         self.estimator = estimator
         self.result_dtype = initial_mean.dtype
-        self.dtype = initial_mean.dtype if dtype is None else dtype
-        self.initial_mean = initial_mean.to(self.dtype)
-        self.initial_std = initial_std.to(self.dtype)
+        self.requested_dtype = initial_mean.dtype if dtype is None else dtype
+        self.dtype = self.requested_dtype  # this GP's: the model's where it cannot (below)
+        self.initial_mean = initial_mean
+        self.initial_std = initial_std
         self.horizon = horizon
         self._twin: ModelStructure | None = None
+        self._checked_gp: object = None
 
     @classmethod
     def for_system(
@@ -144,6 +146,7 @@ class ParticleRollout:
         the same random numbers repeated for each copy, block after block, e.g. one block
         per candidate policy of a population, which ``act`` then tells apart; dropout is
         not allowed then). ``act``: the policy's ``prepare(dropout)`` unless given."""
+        model = self.stepping_model()  # first: it settles the dtype for this GP
         # drawn in the model's dtype and cast: a float32 rollout sees the float64 one's numbers
         like = {"dtype": self.result_dtype, "device": self.initial_mean.device}
         dim = self.initial_mean.shape[0]
@@ -169,7 +172,6 @@ class ParticleRollout:
                 )
             num_particles *= copies
         act = self.policy.prepare(dropout, self.dtype) if act is None else act
-        model = self.stepping_model()
         particles = model.initial_particles(self.initial_states(start))
         states = [model.physical_state(particles)]
         memory = self.estimator.online_reset(num_particles, particles)
@@ -207,7 +209,21 @@ class ParticleRollout:
     def stepping_model(self) -> ModelStructure:
         """The model the particles go through: :attr:`model` itself, or its twin in the
         rollout's dtype (kept across trials, its GP re-pointed after each fit, so compiled
-        graphs see one object)."""
+        graphs see one object). A GP whose predictions are not finite in the requested
+        dtype (:meth:`ExactGP.predicts_in`) is rolled out in the model's own, with a
+        warning, until the next fit."""
+        gp = self.model.gp
+        if self.requested_dtype != self.result_dtype and gp is not self._checked_gp:
+            self._checked_gp = gp
+            fits = gp is None or gp.predicts_in(self.requested_dtype)
+            self.dtype = self.requested_dtype if fits else self.result_dtype
+            if not fits:
+                log.warning(
+                    "the GP's predictions are not finite in %s (hyper-parameters out of its "
+                    "range); rolling out in %s until the next fit",
+                    self.requested_dtype,
+                    self.result_dtype,
+                )
         if self.dtype == self.result_dtype:
             return self.model
         if self._twin is None:
@@ -283,7 +299,8 @@ class ParticleRollout:
         """Samples of p(x0) ``[M, d_x]`` from standard-normal draws ``[M, d_x]``."""
         if self.initial_uniform:
             standard_normal = torch.special.erf(standard_normal * math.sqrt(0.5))
-        return self.initial_mean + self.initial_std * standard_normal
+        dtype = standard_normal.dtype
+        return self.initial_mean.to(dtype) + self.initial_std.to(dtype) * standard_normal
 
     def _reading_noise(
         self, num_particles: int, generator: torch.Generator | None, like: dict[str, Any]
