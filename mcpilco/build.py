@@ -63,8 +63,8 @@ def check_top_level(cfg: DictConfig) -> tuple[torch.dtype, torch.device]:
         raise ConfigError(f"num_trials={cfg.num_trials!r} must be a positive integer")
     if cfg.get("threads") is not None and (not isinstance(cfg.threads, int) or cfg.threads < 1):
         raise ConfigError(f"threads={cfg.threads!r} must be a positive integer or null")
-    if not isinstance(cfg.get("compile", False), bool):
-        raise ConfigError(f"compile={cfg.compile!r} must be true or false")
+    if not isinstance(cfg.get("compile", False), bool) and cfg.get("compile") != "auto":
+        raise ConfigError(f"compile={cfg.compile!r} must be true, false or auto")
     return DTYPES[cfg.dtype], resolve_device(cfg.device)
 
 
@@ -133,7 +133,7 @@ def build(cfg: DictConfig) -> Experiment:
         optimizer=make(cfg.optimizer),
         exploration=exploration_factory(make(cfg.exploration), system),
         simulate_estimator=bool(cfg.get("simulate_estimator", True)),
-        compile=bool(cfg.get("compile", False)),
+        compile="auto" if cfg.get("compile") == "auto" else bool(cfg.get("compile", False)),
         rollout_dtype=None if cfg.get("rollout_dtype") is None else DTYPES[cfg.rollout_dtype],
     )
     components.exploration(rng=np.random.default_rng(0))  # its errors too, before any work

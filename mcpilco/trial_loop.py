@@ -48,8 +48,9 @@ class Components:
     optimizer: PolicySearch
     exploration: ExplorationFactory
     simulate_estimator: bool = True
-    compile: bool = False
-    """torch.compile the particle step (see :class:`ParticleRollout`)."""
+    compile: bool | str = False
+    """torch.compile the particle step: true, false or ``"auto"`` (see
+    :class:`ParticleRollout`)."""
     rollout_dtype: torch.dtype | None = None
     """The particles' dtype in policy optimisation (None: the run's ``dtype``; float32 with
     float64: the mixed setting, see :class:`ParticleRollout`)."""

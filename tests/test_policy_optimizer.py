@@ -154,7 +154,7 @@ def test_compile_choice_keeps_whichever_the_first_steps_timed_faster(
 
     from mcpilco.optim.compile_choice import CompileChoice
 
-    rollout = SimpleNamespace(compile=True, eager_chosen=True)
+    rollout = SimpleNamespace(compile=True, choose_compile=True, eager_chosen=True)
     choice = CompileChoice(rollout, warmup=2, timed=3)  # type: ignore[arg-type]
     modes = []
     for step in range(12):
@@ -167,14 +167,20 @@ def test_compile_choice_keeps_whichever_the_first_steps_timed_faster(
     assert choice.decided and rollout.eager_chosen is eager_chosen
 
 
-def test_compile_choice_leaves_a_rollout_that_does_not_compile_alone() -> None:
+@pytest.mark.parametrize(
+    ("compile", "choose"),
+    [(False, False), (False, True), (True, False)],
+    ids=["false", "false_auto", "true"],
+)
+def test_compile_choice_acts_only_on_compile_auto(compile: bool, choose: bool) -> None:
+    """compile=false never compiles; compile=true always does (bit-for-bit reproducible)."""
     from types import SimpleNamespace
 
     from mcpilco.optim.compile_choice import CompileChoice
 
-    rollout = SimpleNamespace(compile=False, eager_chosen=False)
+    rollout = SimpleNamespace(compile=compile, choose_compile=choose, eager_chosen=False)
     choice = CompileChoice(rollout)  # type: ignore[arg-type]
     for step in range(10):
         choice.before(step)
-        choice.after(step, 1.0)
+        choice.after(step, 1.0 if rollout.eager_chosen else 2.0)
     assert choice.decided and not rollout.eager_chosen and not choice.eager_seconds

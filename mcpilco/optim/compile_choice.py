@@ -16,15 +16,17 @@ log = logging.getLogger(__name__)
 @dataclass
 class CompileChoice:
     """Times the first optimisation steps of a trial compiled, then eagerly, and keeps the
-    faster for the rest (``compile=true`` is then never slower than eager; measured: the
+    faster for the rest (``compile=auto`` is then never slower than eager; measured: the
     float64 step at n = 300 ran 10 % slower compiled with one thread on our 2-core machine,
     the float32/mixed ones and the n = 60 ones faster). The steps are real optimisation
     steps (both ways give the same result to rounding), so nothing is spent on it but the
     eager steps' extra time when compilation wins.
 
     Schedule, by step within the trial: ``warmup`` compiled steps (compiling, untimed),
-    ``timed`` compiled steps, ``timed`` eager steps; then the choice. Does nothing for a
-    rollout that does not compile (``compile=false`` or a compiler failure).
+    ``timed`` compiled steps, ``timed`` eager steps; then the choice. Acts only for a rollout
+    built with ``compile="auto"`` (``compile=true`` always compiles: the same config and
+    seed give the same run bit for bit; a timed choice can differ between runs, and the
+    two ways differ by rounding).
 
     Args:
         rollout: the rollout being optimised.
@@ -39,7 +41,11 @@ class CompileChoice:
     decided: bool = False
 
     def __post_init__(self) -> None:
-        self.decided = not getattr(self.rollout, "compile", False)  # a user's rollout may not
+        # a rollout built with compile="auto" only; a user's rollout may lack the attributes
+        self.decided = not (
+            getattr(self.rollout, "compile", False)
+            and getattr(self.rollout, "choose_compile", False)
+        )
         if not self.decided:
             self.rollout.eager_chosen = False
 

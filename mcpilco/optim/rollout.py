@@ -58,6 +58,9 @@ class ParticleRollout:
             machine). Results agree with eager execution to rounding. Building a compiling
             rollout clears PyTorch's in-memory compile caches (``torch._dynamo.reset``),
             so that graphs of earlier runs in the process do not use up its limit.
+            ``"auto"``: compile, and let the policy search time its first steps both ways
+            and keep the faster (:class:`~mcpilco.optim.compile_choice.CompileChoice`);
+            the run is then reproducible only up to rounding.
         dtype: the particles' dtype (None: the policy's). ``float32`` with a float64 model
             and policy is the mixed setting (``rollout_dtype=float32``): the GP stays fitted
             and factorised in float64, the rollout (features, policy, cross-covariances,
@@ -77,11 +80,12 @@ class ParticleRollout:
         horizon: int,
         sensors: Sensors | None = None,
         initial_uniform: bool = False,
-        compile: bool = False,
+        compile: bool | str = False,
         dtype: torch.dtype | None = None,
     ) -> None:
         self.initial_uniform = initial_uniform
-        self.compile = compile
+        self.compile = bool(compile)
+        self.choose_compile = compile == "auto"
         self.eager_chosen = False  # set by a :class:`CompileChoice` that timed eager faster
         self._compiled: dict[str, Callable[..., Any]] = {}
         if compile:
@@ -112,7 +116,7 @@ class ParticleRollout:
         cost: nn.Module,
         estimator: StateEstimator,
         simulate_estimator: bool = True,
-        compile: bool = False,
+        compile: bool | str = False,
         dtype: torch.dtype | None = None,
     ) -> ParticleRollout:
         """A rollout from the system's p(x0) over one trial, on the policy's device, in
