@@ -137,9 +137,13 @@ def precision_floor(prior_variance: torch.Tensor, num_train: int) -> torch.Tenso
     return (prior_variance * (num_train**0.5 * epsilon)).clamp_min(VARIANCE_FLOOR)
 
 
-def _whitened(cross: torch.Tensor, factor: torch.Tensor) -> torch.Tensor:
-    """v = L⁻¹ k* for each test point, as rows ``[G, M, N]`` (v L ᵀ = k*)."""
-    return torch.linalg.solve_triangular(factor.mT, cross, upper=True, left=False)
+def _whitened_products(
+    cross: torch.Tensor, factor: torch.Tensor, whitened_targets: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """v = L⁻¹ k* as rows ``[G, M, N]`` (v Lᵀ = k*), mean vᵀβ and quadratic ‖v‖² ``[G, M]``."""
+    whitened = torch.linalg.solve_triangular(factor.mT, cross, upper=True, left=False)
+    mean = torch.linalg.vecdot(whitened, whitened_targets.unsqueeze(-2))
+    return whitened, mean, whitened.square().sum(-1)
 
 
 def _whitened_cross_gradient(
@@ -165,9 +169,8 @@ class _WhitenedPosteriorSample(torch.autograd.Function):
         whitened_targets: torch.Tensor,
         noise: torch.Tensor,
     ) -> torch.Tensor:
-        whitened = _whitened(cross, factor)
-        mean = torch.linalg.vecdot(whitened, whitened_targets.unsqueeze(-2))
-        variance = prior_variance - whitened.square().sum(-1)
+        whitened, mean, quadratic = _whitened_products(cross, factor, whitened_targets)
+        variance = prior_variance - quadratic
         floor = precision_floor(prior_variance, factor.shape[-1])
         clamped = variance < floor
         std = torch.maximum(variance, floor).sqrt_()
@@ -212,6 +215,5 @@ def whitened_mean_and_quadratic(
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """``(k* α, diag(k* Γ⁻¹ k*ᵀ))`` ``[G, M]`` each, in the whitened form (plain autograd;
     the variance k** − quadratic is to be floored with :func:`precision_floor`)."""
-    whitened = _whitened(cross, factor.detach())
-    mean = torch.linalg.vecdot(whitened, whitened_targets.detach().unsqueeze(-2))
-    return mean, whitened.square().sum(-1)
+    _, mean, quadratic = _whitened_products(cross, factor.detach(), whitened_targets.detach())
+    return mean, quadratic
