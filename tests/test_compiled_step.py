@@ -51,7 +51,9 @@ def cost_and_gradient(
         ["+experiment=cartpole_pms"],  # simulated readings, online low-pass estimator
         ["+experiment=cartpole_df"],  # derivative-free: histories of readings
         ["rollout_dtype=float32"],  # the mixed setting
-        ["+experiment=cartpole_pms", "rollout_dtype=float32"],
+        pytest.param(  # the mixed twin on the readings path (slow: its graphs compile)
+            ["+experiment=cartpole_pms", "rollout_dtype=float32"], marks=pytest.mark.slow
+        ),
     ],
     ids=["full_state", "pms", "derivative_free", "mixed", "mixed_pms"],
 )
