@@ -38,6 +38,27 @@ class _PredictionCache:
     factor: torch.Tensor | None = None
     whitened_targets: torch.Tensor | None = None
 
+    def mean_and_variance(self, inputs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Posterior mean and floored variance ``[G, M]`` at ``inputs [M, D]``."""
+        cross, prior_variance = self.kernel(inputs)  # [G, M, N], [G, M]
+        if self.solve is not None:
+            mean, quadratic = mean_and_quadratic(cross, self.solve)
+            return mean, (prior_variance - quadratic).clamp_min(VARIANCE_FLOOR)
+        assert self.factor is not None and self.whitened_targets is not None
+        mean, quadratic = whitened_mean_and_quadratic(cross, self.factor, self.whitened_targets)
+        floor = precision_floor(prior_variance, self.factor.shape[-1])
+        return mean, torch.maximum(prior_variance - quadratic, floor)
+
+    def sample(self, inputs: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
+        """Reparameterised posterior sample ``[G, M]`` at ``inputs [M, D]``."""
+        cross, prior_variance = self.kernel(inputs)
+        if self.solve is not None:
+            return posterior_sample(cross, prior_variance, self.solve, noise)
+        assert self.factor is not None and self.whitened_targets is not None
+        return whitened_posterior_sample(
+            cross, prior_variance, self.factor, self.whitened_targets, noise
+        )
+
 
 class ExactGP(nn.Module):
     """G independent GPs with zero prior mean (thesis eq. 2.3–2.4).
@@ -71,6 +92,7 @@ class ExactGP(nn.Module):
         self.register_buffer("train_inputs", torch.zeros(0, kernel.shape.input_dim))
         self.register_buffer("train_targets", torch.zeros(0, outputs))
         self._caches: dict[torch.dtype, _PredictionCache] = {}
+        self._factor: torch.Tensor | None = None  # Cholesky factor of Γ, from precompute
 
     @property
     def num_outputs(self) -> int:
@@ -90,6 +112,7 @@ class ExactGP(nn.Module):
         self.train_inputs = inputs.detach()
         self.train_targets = targets.detach()
         self._caches = {}
+        self._factor = None
 
     def _gram_factor(self) -> torch.Tensor:
         inputs = self.train_inputs
@@ -113,8 +136,8 @@ class ExactGP(nn.Module):
         Predictions in another dtype (a float32 rollout of a float64 GP) get their cache
         from this factorisation, cast (:meth:`_prediction_cache`)."""
         dtype = self.train_inputs.dtype
-        factor = self._gram_factor()
-        self._caches = {dtype: self._cache_from(factor, self.kernel, dtype)}
+        self._factor = self._gram_factor()
+        self._caches = {dtype: self._cache_from(self._factor, self.kernel, dtype)}
 
     def _cache_from(
         self, factor: torch.Tensor, kernel: Kernel, dtype: torch.dtype
@@ -153,41 +176,24 @@ class ExactGP(nn.Module):
             noise).
             Differentiable w.r.t. ``inputs``; hyper-parameters are held fixed.
         """
-        cache = self._prediction_cache(inputs.dtype)
-        cross, prior_variance = cache.kernel(inputs)  # [G, M, N], [G, M]
-        if cache.solve is not None:
-            mean, quadratic = mean_and_quadratic(cross, cache.solve)
-        else:
-            assert cache.factor is not None and cache.whitened_targets is not None
-            mean, quadratic = whitened_mean_and_quadratic(
-                cross, cache.factor, cache.whitened_targets
-            )
-            floor = precision_floor(prior_variance, cache.factor.shape[-1])
-            return mean, torch.maximum(prior_variance - quadratic, floor)
-        return mean, (prior_variance - quadratic).clamp_min(VARIANCE_FLOOR)
+        return self._prediction_cache(inputs.dtype).mean_and_variance(inputs)
 
     def sample(self, inputs: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
         """Reparameterised posterior sample ``mean + std ⊙ noise`` ``[G, M]`` at
         ``inputs [M, D]`` with standard-normal ``noise [G, M]`` (one fused op), computed in
         the inputs' dtype (float64: inverse form; float32: whitened form)."""
-        cache = self._prediction_cache(inputs.dtype)
-        cross, prior_variance = cache.kernel(inputs)
-        if cache.solve is not None:
-            return posterior_sample(cross, prior_variance, cache.solve, noise)
-        assert cache.factor is not None and cache.whitened_targets is not None
-        return whitened_posterior_sample(
-            cross, prior_variance, cache.factor, cache.whitened_targets, noise
-        )
+        return self._prediction_cache(inputs.dtype).sample(inputs, noise)
 
     def _prediction_cache(self, dtype: torch.dtype) -> _PredictionCache:
         """The cache for predictions in ``dtype``: the GP's own (factorised on first use) or
         one cast from it (kernel copied into ``dtype``, Γ factorised in the GP's dtype)."""
-        if self.train_inputs.dtype not in self._caches:
+        if self._factor is None or self.train_inputs.dtype not in self._caches:
             self.precompute()
+        assert self._factor is not None
         if dtype not in self._caches:
             with torch.no_grad():
-                factor = self._gram_factor()
-                self._caches[dtype] = self._cache_from(factor, self._kernel_in(dtype), dtype)
+                kernel = self._kernel_in(dtype)
+                self._caches[dtype] = self._cache_from(self._factor, kernel, dtype)
         return self._caches[dtype]
 
     @torch.no_grad()
