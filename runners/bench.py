@@ -117,7 +117,11 @@ def time_steps(
 ) -> StepTiming:
     """Time ``steps`` optimisation steps after ``warmup`` untimed ones; ``dtype`` is
     ``float64``, ``float32`` or ``mixed`` (float64 GP, float32 rollout)."""
-    dtypes = ["dtype=float64", "rollout_dtype=float32"] if dtype == "mixed" else [f"dtype={dtype}"]
+    dtypes = (  # every row names both keys: the defaults do not decide what a row measures
+        ["dtype=float64", "rollout_dtype=float32"]
+        if dtype == "mixed"
+        else [f"dtype={dtype}", "rollout_dtype=null"]
+    )
     overrides = [*dtypes, *setting, f"device={device}", f"compile={compile}"]
     with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
         cfg = compose("train", overrides=overrides)

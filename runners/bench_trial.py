@@ -22,8 +22,8 @@ from pathlib import Path
 import pandas as pd
 
 SETTINGS = {
-    "float64": ["dtype=float64"],
-    "float32": ["dtype=float32"],
+    "float64": ["dtype=float64", "rollout_dtype=null"],
+    "float32": ["dtype=float32", "rollout_dtype=null"],
     "mixed": ["dtype=float64", "rollout_dtype=float32"],
 }
 """Named settings and their overrides."""

@@ -47,13 +47,13 @@ def cost_and_gradient(
 @pytest.mark.parametrize(
     "experiment",
     [
-        [],  # the policy sees the particle (full state)
-        ["+experiment=cartpole_pms"],  # simulated readings, online low-pass estimator
-        ["+experiment=cartpole_df"],  # derivative-free: histories of readings
-        ["rollout_dtype=float32"],  # the mixed setting
-        pytest.param(  # the mixed twin on the readings path (slow: its graphs compile)
-            ["+experiment=cartpole_pms", "rollout_dtype=float32"], marks=pytest.mark.slow
+        ["rollout_dtype=null"],  # float64: the policy sees the particle (full state)
+        pytest.param(  # float64, simulated readings (slow: its graphs compile)
+            ["+experiment=cartpole_pms", "rollout_dtype=null"], marks=pytest.mark.slow
         ),
+        ["+experiment=cartpole_df", "rollout_dtype=null"],  # float64 derivative-free histories
+        [],  # the default, mixed setting (float32 rollout of a float64 GP)
+        ["+experiment=cartpole_pms"],  # mixed, simulated readings, online low-pass estimator
     ],
     ids=["full_state", "pms", "derivative_free", "mixed", "mixed_pms"],
 )
