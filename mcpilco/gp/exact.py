@@ -187,7 +187,7 @@ class ExactGP(nn.Module):
     def _prediction_cache(self, dtype: torch.dtype) -> _PredictionCache:
         """The cache for predictions in ``dtype``: the GP's own (factorised on first use) or
         one cast from it (kernel copied into ``dtype``, Γ factorised in the GP's dtype)."""
-        if self._factor is None or self.train_inputs.dtype not in self._caches:
+        if self.train_inputs.dtype not in self._caches:  # set and cleared with self._factor
             self.precompute()
         assert self._factor is not None
         if dtype not in self._caches:
