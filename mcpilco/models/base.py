@@ -213,7 +213,10 @@ class ModelStructure(nn.Module, ABC):
 
     def _basis_or_none(self) -> Callable[[torch.Tensor], torch.Tensor] | None:
         try:
-            self.output_basis(torch.zeros(1, self.gp_input_dim, dtype=torch.float64))
+            probe = torch.zeros(
+                1, self.gp_input_dim, dtype=torch.float64, device=self._like()["device"]
+            )
+            self.output_basis(probe)
         except NotImplementedError:
             return None
         return self.output_basis

@@ -241,9 +241,15 @@ class DerivativeFree(ModelStructure):
             positions = torch.as_tensor(np.asarray(readings)[:, self.reading_columns], **like)
             u = torch.as_tensor(trajectory_actions, **like)
             steps = u.shape[0]
-            lag = torch.arange(steps)[:, None] - torch.arange(self.m_q + 1)[None, :]
+            index = {"device": u.device}
+            lag = (
+                torch.arange(steps, **index)[:, None] - torch.arange(self.m_q + 1, **index)[None, :]
+            )
             history = positions[lag.clamp_min(0)].flatten(-2)  # [T, d_q (m_q+1)]
-            lag_u = torch.arange(steps)[:, None] - torch.arange(1, self.m_u + 1)[None, :]
+            lag_u = (
+                torch.arange(steps, **index)[:, None]
+                - torch.arange(1, self.m_u + 1, **index)[None, :]
+            )
             past = u[lag_u.clamp_min(0)] * (lag_u >= 0).unsqueeze(-1).to(u.dtype)
             particles = torch.cat([history, past.flatten(-2)], dim=-1)
             inputs.append(self.gp_inputs(particles, u))

@@ -113,7 +113,7 @@ class BlackDropsSearch(PolicySearch):
         policy = rollout.policy
         for name, parameter in policy.named_parameters():
             if name == "centres":
-                ranges = policy.centre_range.to(torch.float64)
+                ranges = policy.centre_range.to(device="cpu", dtype=torch.float64)
                 value = ranges.expand(parameter.shape) if ranges.dim() else ranges
                 parts.append(torch.broadcast_to(value, parameter.shape).flatten())
             elif name == "weights":

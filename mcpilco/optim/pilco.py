@@ -182,7 +182,7 @@ class PilcoSearch(PolicySearch):
             if not math.isfinite(cost):
                 # a line-search trial point out of the finite numbers: report it as +big
                 # with no gradient so the search backs off
-                return torch.tensor(1e10, dtype=total.dtype)
+                return torch.tensor(1e10, dtype=total.dtype, device=total.device)
             total.backward()
             if cost < best["cost"]:
                 best["cost"] = cost
