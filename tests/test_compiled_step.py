@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import math
 from pathlib import Path
 
 import pytest
@@ -152,3 +153,23 @@ def test_a_new_compiling_rollout_is_not_limited_by_the_graphs_of_an_earlier_run(
             with frozen(c.model):
                 cost_and_gradient(rollout, 0.25, 0)
             assert rollout.compile, overrides
+
+
+def test_refits_of_a_run_never_use_up_the_graph_limit() -> None:
+    """Each fit brings GP tensors of a new size and its own masked and unmasked graphs; a
+    run of many trials must not reach PyTorch's per-function graph limit (after which it
+    runs eagerly, silently: seen at trial 5 of a cart-pole run). Here the limit is 2, one
+    fit's worth, and three fits follow one another."""
+    with torch._dynamo.config.patch(recompile_limit=2, fail_on_recompile_limit_hit=True):
+        built = small_experiment()
+        c = built.components
+        args = (c.system, c.model, c.policy, c.cost, c.estimator, c.simulate_estimator)
+        rollout = ParticleRollout.for_system(*args, compile=True, dtype=c.rollout_dtype)
+        for size in (20, 30):
+            states, actions = exploration_data(built, size, seed=size)
+            c.model.fit(states, actions)
+            with frozen(c.model):
+                for dropout in (0.25, 0.0):
+                    cost, _ = cost_and_gradient(rollout, dropout, 0)
+                    assert math.isfinite(cost)
+            assert rollout.compile, size  # never fell back to eager

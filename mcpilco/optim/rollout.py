@@ -106,6 +106,7 @@ class ParticleRollout:
         self.horizon = horizon
         self._twin: ModelStructure | None = None
         self._checked_gp: object = None
+        self._graphs_gp: object = None  # the GP the compiled graphs were made for
 
     @classmethod
     def for_system(
@@ -151,6 +152,7 @@ class ParticleRollout:
         per candidate policy of a population, which ``act`` then tells apart; dropout is
         not allowed then). ``act``: the policy's ``prepare(dropout)`` unless given."""
         model = self.stepping_model()  # first: it settles the dtype for this GP
+        self._drop_graphs_of_earlier_fits()
         # drawn in the model's dtype and cast: a float32 rollout sees the float64 one's numbers
         like = {"dtype": self.result_dtype, "device": self.initial_mean.device}
         dim = self.initial_mean.shape[0]
@@ -209,6 +211,23 @@ class ParticleRollout:
         trajectory = torch.stack(states).to(self.result_dtype)  # [T+1, M, d_x]
         step_costs = self.cost(trajectory).mean(-1)  # [T+1]
         return RolloutResult(step_costs.sum(), step_costs, trajectory)
+
+    def _drop_graphs_of_earlier_fits(self) -> None:
+        """Clear PyTorch's compile caches once the GP has been refitted.
+
+        Each fit brings GP tensors of a new size, and the graphs compiled for the earlier
+        sizes are of no further use. PyTorch keeps at most 8 graphs per function and then
+        runs it eagerly, silently: with a masked and an unmasked graph per fit, that came
+        at trial 5 of a cart-pole run (its step 435 instead of ~300 ms). Cleared here,
+        each fit's graphs are compiled for its sizes alone (static shapes).
+        """
+        gp = self.model.gp
+        if not self.compile or gp is self._graphs_gp:
+            return
+        if self._graphs_gp is not None:
+            torch._dynamo.reset()
+            self._compiled.clear()
+        self._graphs_gp = gp
 
     def stepping_model(self) -> ModelStructure:
         """The model the particles go through: :attr:`model` itself, or its twin in the
