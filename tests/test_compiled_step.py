@@ -159,7 +159,7 @@ def test_refits_of_a_run_never_use_up_the_graph_limit() -> None:
     """Each fit brings GP tensors of a new size and its own masked and unmasked graphs; a
     run of many trials must not reach PyTorch's per-function graph limit (after which it
     runs eagerly, silently: seen at trial 5 of a cart-pole run). Here the limit is 2, one
-    fit's worth, and three fits follow one another."""
+    fit's worth, and a second fit follows."""
     with torch._dynamo.config.patch(recompile_limit=2, fail_on_recompile_limit_hit=True):
         built = small_experiment()
         c = built.components
