@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -12,6 +13,7 @@ import torch._dynamo
 from hydra import compose, initialize_config_dir
 
 from mcpilco.build import Experiment, build
+from mcpilco.optim import PolicyOptimizer
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
 from runners.bench import exploration_data
@@ -173,3 +175,54 @@ def test_refits_of_a_run_never_use_up_the_graph_limit() -> None:
                     cost, _ = cost_and_gradient(rollout, dropout, 0)
                     assert math.isfinite(cost)
             assert rollout.compile, size  # never fell back to eager
+
+
+class _FailingBackward(torch.autograd.Function):
+    """Identity forward; a backward that fails as a corrupt compiled kernel does."""
+
+    @staticmethod
+    def forward(ctx: object, particles: torch.Tensor) -> torch.Tensor:
+        return particles.view_as(particles)
+
+    @staticmethod
+    def backward(ctx: object, grad: torch.Tensor) -> torch.Tensor:
+        raise ImportError("cache/kernel.main.so: file too short")
+
+
+def _failing_backward(step: Callable[..., torch.Tensor]) -> Callable[..., torch.Tensor]:
+    return lambda *args: _FailingBackward.apply(step(*args))
+
+
+def test_a_backward_that_fails_to_compile_replays_the_step_eagerly(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """The backward graphs compile at the first backward pass, outside the forward's
+    fallback; a failure there (seen with a kernel cache truncated by a killed run) must
+    not end the run: the step is replayed eagerly with the same draws, so the policy ends
+    exactly where an eager optimisation takes it."""
+    experiment = small_experiment()
+    c = experiment.components
+    states, actions = exploration_data(experiment, 20)
+    c.model.fit(states, actions)
+    schedule = {"window": 200, "threshold": 0.08, "dropout_step": 0.125, "learning_rate": 0.01}
+    initial = {k: v.clone() for k, v in c.policy.state_dict().items()}
+    final = []
+    for compiled in (False, True):
+        c.policy.load_state_dict(initial)
+        rollout = ParticleRollout.for_system(
+            c.system, c.model, c.policy, c.cost, c.estimator, compile=compiled
+        )
+        if compiled:
+            rollout._compiled["_state_step"] = _failing_backward(rollout._state_step)
+        optimizer = PolicyOptimizer(
+            num_particles=PARTICLES, max_steps=3, max_steps_first_trial=3, schedule=schedule
+        )
+        with caplog.at_level(logging.WARNING):
+            result = optimizer.optimize(
+                rollout, trial=1, generator=torch.Generator().manual_seed(3)
+            )
+        assert result.steps == 3
+        final.append(torch.cat([p.detach().flatten() for p in c.policy.parameters()]))
+    assert "file too short" in caplog.text and "running eagerly" in caplog.text
+    assert not rollout.compile
+    torch.testing.assert_close(final[1], final[0], rtol=0, atol=0)

@@ -156,6 +156,7 @@ class PolicyOptimizer(PolicySearch):
                 choice.before(step)
                 dropout = max(schedule.dropout, 0.0)
                 optimizer.zero_grad(set_to_none=True)
+                draws = _draws_to_replay(rollout, generator)
                 total = rollout(self.num_particles, dropout, generator).total_cost
                 if not torch.isfinite(total):
                     failures += 1
@@ -169,7 +170,18 @@ class PolicyOptimizer(PolicySearch):
                         failures = 0
                     continue
                 failures = 0
-                total.backward()
+                try:
+                    total.backward()
+                except Exception as error:  # noqa: BLE001 - a compiler failure: replay eagerly
+                    if draws is None:
+                        raise
+                    # the backward graphs compile at the first backward pass, outside the
+                    # rollout's own fallback (e.g. a kernel cache truncated by a killed run)
+                    rollout.stop_compiling(error)
+                    optimizer.zero_grad(set_to_none=True)
+                    generator.set_state(draws)  # type: ignore[union-attr]
+                    total = rollout(self.num_particles, dropout, generator).total_cost
+                    total.backward()
                 optimizer.step()
                 choice.after(step, time.perf_counter() - started)
                 cost = float(total.detach())
@@ -191,6 +203,16 @@ class PolicyOptimizer(PolicySearch):
                     on_step(info)
                 if event.stop:
                     break
+
+
+def _draws_to_replay(
+    rollout: ParticleRollout, generator: torch.Generator | None
+) -> torch.Tensor | None:
+    """The generator's state before a compiled rollout (None for an eager one, or with
+    no generator): a step whose backward fails to compile is replayed eagerly from it."""
+    if generator is None or not getattr(rollout, "compile", False):
+        return None
+    return generator.get_state()
 
 
 def _checked_stages(stages: Sequence[float] | None) -> tuple[float, ...] | None:

@@ -314,9 +314,13 @@ class ParticleRollout:
         try:
             return self._compiled[name](*args)
         except Exception as error:  # noqa: BLE001 - any compiler failure: run eagerly
-            log.warning("torch.compile of the particle step failed (%s); running eagerly", error)
-            self.compile = False
+            self.stop_compiling(error)
             return function(*args)
+
+    def stop_compiling(self, error: BaseException) -> None:
+        """Run eagerly from now on, with a warning naming the compiler's ``error``."""
+        log.warning("torch.compile of the particle step failed (%s); running eagerly", error)
+        self.compile = False
 
     def initial_states(self, standard_normal: torch.Tensor) -> torch.Tensor:
         """Samples of p(x0) ``[M, d_x]`` from standard-normal draws ``[M, d_x]``."""
