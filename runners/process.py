@@ -33,3 +33,19 @@ def keep_freed_memory(limit_bytes: int = 1 << 34) -> bool:
     ok = ok and bool(mallopt(_M_TRIM_THRESHOLD, min(limit_bytes, (1 << 31) - 1)))
     log.debug("glibc mallopt keep-freed-memory: %s", ok)
     return ok
+
+
+def log_torch_warnings_to_files() -> None:
+    """Also write PyTorch's own warnings to the root logger's files (Hydra's train.log).
+
+    PyTorch's loggers (``torch``, ``torch._dynamo``, ``torch._inductor``, ...) do not
+    propagate to the root logger, so their warnings (e.g. the compiler's "hit
+    config.recompile_limit", after which a step runs eagerly) reach the console only. Call
+    this once logging is configured (in a Hydra task function) and torch is imported."""
+    files = [h for h in logging.getLogger().handlers if isinstance(h, logging.FileHandler)]
+    for name in list(logging.root.manager.loggerDict):
+        logger = logging.getLogger(name)
+        if (name == "torch" or name.startswith("torch.")) and not logger.propagate:
+            for handler in files:
+                if handler not in logger.handlers:
+                    logger.addHandler(handler)

@@ -203,3 +203,26 @@ def test_derivative_free_run_learns_from_position_readings(tmp_path: Path) -> No
     # 30 steps at 30 Hz; GP input [p, sin θ, cos θ, Δq_{t-1} (2), Δq_{t-2} (2), u_t, u_{t-1}]
     assert model["train_inputs"].shape == (30, 9)
     assert model["train_targets"].shape == (30, 2)
+
+
+def test_pytorch_warnings_reach_the_run_log(tmp_path: Path) -> None:
+    """PyTorch's loggers do not propagate; the compiler's warnings (e.g. its graph limit,
+    after which a step runs eagerly) must still reach train.log, not only the console."""
+    import logging
+
+    from runners.process import log_torch_warnings_to_files
+
+    log_file = tmp_path / "train.log"
+    handler = logging.FileHandler(log_file)
+    root = logging.getLogger()
+    root.addHandler(handler)
+    try:
+        log_torch_warnings_to_files()
+        log_torch_warnings_to_files()  # idempotent: one line per warning
+        logging.getLogger("torch._dynamo.convert_frame").warning("hit config.recompile_limit")
+        logging.getLogger("torch._dynamo.convert_frame").debug("not a warning")
+    finally:
+        for logger in [root, *map(logging.getLogger, list(logging.root.manager.loggerDict))]:
+            logger.removeHandler(handler)
+        handler.close()
+    assert log_file.read_text().splitlines() == ["hit config.recompile_limit"]
