@@ -181,6 +181,8 @@ class PolicyOptimizer(PolicySearch):
                     optimizer.zero_grad(set_to_none=True)
                     generator.set_state(draws)  # type: ignore[union-attr]
                     total = rollout(self.num_particles, dropout, generator).total_cost
+                    if not torch.isfinite(total):
+                        continue  # the eager replay's rounding: the next step tries again
                     total.backward()
                 optimizer.step()
                 choice.after(step, time.perf_counter() - started)

@@ -218,8 +218,8 @@ class ParticleRollout:
         Each fit brings GP tensors of a new size, and the graphs compiled for the earlier
         sizes are of no further use. PyTorch keeps at most 8 graphs per function and then
         runs it eagerly, silently: with a masked and an unmasked graph per fit, that came
-        at trial 5 of a cart-pole run (its step 435 instead of ~300 ms). Cleared here,
-        each fit's graphs are compiled for its sizes alone (static shapes).
+        at trial 5 of a thesis-settings cart-pole run. Cleared here, each fit's graphs are
+        compiled for its sizes alone (static shapes).
         """
         gp = self.model.gp
         if not self.compile or gp is self._graphs_gp:
