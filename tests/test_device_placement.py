@@ -23,6 +23,7 @@ from torch.overrides import TorchFunctionMode
 from mcpilco.build import build
 from mcpilco.run_storage import RunDirectory
 from mcpilco.trial_loop import TrialLoop
+from tests.test_runner import ONE_TINY_TRIAL
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = str(ROOT / "mcpilco")
@@ -30,16 +31,6 @@ FACTORIES = {
     torch.arange, torch.zeros, torch.ones, torch.empty, torch.full, torch.eye,
     torch.linspace, torch.rand, torch.randn, torch.randint, torch.tensor, torch.as_tensor,
 }  # fmt: skip
-TINY = [
-    "num_trials=1",
-    "threads=1",
-    "compile=false",
-    "optimizer.num_particles=8",
-    "optimizer.max_steps=3",
-    "optimizer.max_steps_first_trial=3",
-    "policy.num_basis=10",
-    "system.trial_duration=0.5",
-]
 
 
 def _in_constructor(frame: FrameType | None) -> bool:
@@ -92,7 +83,7 @@ def test_trial_loop_creates_no_tensor_without_a_device(
     tmp_path: Path, overrides: list[str]
 ) -> None:
     with initialize_config_dir(version_base="1.3", config_dir=str(ROOT / "conf")):
-        cfg = compose("train", overrides=TINY + overrides)
+        cfg = compose("train", overrides=ONE_TINY_TRIAL + overrides)
     experiment = build(cfg)
     loop = TrialLoop(experiment.components, RunDirectory(tmp_path), experiment.streams, 1)
     probe = DevicelessFactories()

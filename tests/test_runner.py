@@ -30,6 +30,17 @@ TINY = [
     "policy.num_basis=10",
     "system.trial_duration=1.0",
 ]
+ONE_TINY_TRIAL = [
+    "num_trials=1",
+    "threads=1",
+    "compile=false",
+    "optimizer.num_particles=8",
+    "optimizer.max_steps=3",
+    "optimizer.max_steps_first_trial=3",
+    "policy.num_basis=10",
+    "system.trial_duration=0.5",
+]
+"""One learning trial of a few steps on half a second: for checks of the whole loop."""
 
 
 def run_module(module: str, *args: str, timeout: float = 600) -> subprocess.CompletedProcess[str]:

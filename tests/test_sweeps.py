@@ -10,22 +10,10 @@ import pandas as pd
 import pytest
 
 from analysis.swing_up import pole_swings
-from tests.test_runner import run_module
+from tests.test_runner import ONE_TINY_TRIAL, run_module
 
 ROOT = Path(__file__).resolve().parent.parent
-TINY_SWEEP = [
-    "--multirun",
-    "num_trials=1",
-    "threads=1",
-    "compile=false",
-    "optimizer.num_particles=8",
-    "optimizer.max_steps=3",
-    "optimizer.max_steps_first_trial=3",
-    "policy.num_basis=10",
-    "system.trial_duration=0.5",
-    "seed=0,1",
-    "kernel=se,sp",
-]
+TINY_SWEEP = ["--multirun", *ONE_TINY_TRIAL, "seed=0,1", "kernel=se,sp"]
 
 
 def sweep(*overrides: str) -> subprocess.CompletedProcess[str]:
