@@ -68,6 +68,8 @@ def test_prepared_kernel_equals_forward(name: str, inputs: torch.Tensor) -> None
     cross, prior = kernel.prepare(inputs[:5])(inputs)
     torch.testing.assert_close(cross, kernel(inputs, inputs[:5]))
     torch.testing.assert_close(prior, kernel.diag(inputs))
+    # column-major, the layout the predictions' solves take without a copy (PreparedKernel)
+    assert cross.mT.is_contiguous(), cross.stride()
 
 
 @pytest.mark.parametrize("name", sorted(KERNELS))
@@ -113,9 +115,8 @@ def test_linear_subset_ignores_other_inputs(inputs: torch.Tensor) -> None:
 def test_se_prepared_cross_gradcheck(generator: torch.Generator) -> None:
     x = torch.randn(5, 3, generator=generator, dtype=torch.float64, requires_grad=True)
     inverse = 0.5 + torch.rand(2, 1, 3, generator=generator, dtype=torch.float64)
-    twice_z2_t = torch.randn(2, 3, 4, generator=generator, dtype=torch.float64)
-    offset = torch.randn(2, 1, 4, generator=generator, dtype=torch.float64)
-    assert gradcheck(lambda a: _PreparedCross.apply(a, inverse, twice_z2_t, offset), (x,))
+    training = torch.randn(2, 4, 5, generator=generator, dtype=torch.float64)  # [G, N, D+2]
+    assert gradcheck(lambda a: _PreparedCross.apply(a, inverse, training), (x,))
 
 
 def test_capped_linear_starts_at_its_weights_and_stays_below_the_cap(

@@ -29,21 +29,23 @@ def solve_matrix(inverse_gram: torch.Tensor, alpha: torch.Tensor) -> torch.Tenso
 def _products(
     cross: torch.Tensor, solve: torch.Tensor
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """Γ⁻¹ k* ``[G, M, N]``, mean k* α ``[G, M]`` and quadratic k* Γ⁻¹ k*ᵀ ``[G, M]``."""
-    products = torch.matmul(cross, solve)  # [G, M, N+1]
-    weighted, mean = products[..., :-1], products[..., -1]
-    return weighted, mean, torch.linalg.vecdot(weighted, cross)
+    """Γ⁻¹ k*ᵀ ``[G, N, M]``, mean k* α ``[G, M]`` and quadratic k* Γ⁻¹ k*ᵀ ``[G, M]``,
+    computed on the N × M side (k* comes column-major: see
+    :data:`~mcpilco.kernels.base.PreparedKernel`)."""
+    products = torch.matmul(solve.mT, cross.mT)  # [G, N+1, M]
+    weighted_t, mean = products[..., :-1, :], products[..., -1, :]
+    return weighted_t, mean, torch.linalg.vecdot(weighted_t, cross.mT, dim=-2)
 
 
 def _cross_gradient(
-    weighted: torch.Tensor,
+    weighted_t: torch.Tensor,
     alpha: torch.Tensor,
     grad_mean: torch.Tensor,
     grad_quadratic: torch.Tensor,
 ) -> torch.Tensor:
-    """∂/∂k* of the mean is α ``[G, N]``, of the quadratic 2 Γ⁻¹ k*."""
-    grad_cross = grad_mean.unsqueeze(-1) * alpha.unsqueeze(-2)
-    return grad_cross.addcmul_(weighted, grad_quadratic.unsqueeze(-1), value=2.0)
+    """∂/∂k* ``[G, M, N]`` (column-major): α for the mean, 2 Γ⁻¹ k* for the quadratic."""
+    grad_t = alpha.unsqueeze(-1) * grad_mean.unsqueeze(-2)  # [G, N, M]
+    return grad_t.addcmul_(weighted_t, grad_quadratic.unsqueeze(-2), value=2.0).mT
 
 
 class _MeanAndQuadratic(torch.autograd.Function):
@@ -154,9 +156,9 @@ def _whitened_cross_gradient(
     grad_quadratic: torch.Tensor,
 ) -> torch.Tensor:
     """∂/∂k* ``[G, M, N]`` of Σ g_mean·mean + g_quad·‖v‖²: (g_mean β + 2 g_quad v) L⁻¹."""
-    rows = grad_mean.unsqueeze(-1) * whitened_targets.unsqueeze(-2)
-    rows.addcmul_(whitened, grad_quadratic.unsqueeze(-1), value=2.0)
-    return torch.linalg.solve_triangular(factor, rows, upper=False, left=False)
+    rows_t = whitened_targets.unsqueeze(-1) * grad_mean.unsqueeze(-2)  # [G, N, M]
+    rows_t.addcmul_(whitened.mT, grad_quadratic.unsqueeze(-2), value=2.0)
+    return torch.linalg.solve_triangular(factor, rows_t.mT, upper=False, left=False)
 
 
 class _WhitenedPosteriorSample(torch.autograd.Function):

@@ -23,7 +23,10 @@ BasisFunction = Callable[[torch.Tensor], torch.Tensor]
 
 PreparedKernel = Callable[[torch.Tensor], tuple[torch.Tensor, torch.Tensor]]
 """Maps test inputs ``x [M, D]`` to ``(k(x, X) [G, M, N], k(x, x) [G, M])`` for fixed
-training inputs X."""
+training inputs X. The cross-covariance is best returned column-major (its memory laid out
+as k(X, x) ``[G, N, M]``, i.e. ``.mT`` of a contiguous tensor): the layout in which the
+predictions' triangular solves and products take it without a transposing copy (measured:
+5–15 % of a particle-rollout step at n = 300). Any layout gives the same numbers."""
 
 
 @dataclass(frozen=True)
@@ -69,8 +72,10 @@ class Kernel(nn.Module, ABC):
     def prepare(self, x2: torch.Tensor) -> PreparedKernel:
         """``x1 ↦ (k(x1, x2), k(x1, x1) diagonal)`` with everything that depends only on
         ``x2`` and the hyper-parameters computed once (predictions at fixed training
-        inputs). The default closes over ``x2``; kernels override it where it pays."""
-        return lambda x1: (self(x1, x2), self.diag(x1))
+        inputs). The default closes over ``x2`` and returns k(x2, x1)ᵀ (a kernel is
+        symmetric; column-major, see :data:`PreparedKernel`); kernels override it where
+        it pays."""
+        return lambda x1: (self(x2, x1).mT, self.diag(x1))
 
     def _log_parameter(self, name: str, value: float | Sequence[float], size: int) -> nn.Parameter:
         """A ``[G, size]`` parameter holding log(value), after checking value > 0."""

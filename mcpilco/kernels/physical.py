@@ -44,11 +44,12 @@ class PhysicalBasis(Kernel):
 
     def prepare(self, x2: torch.Tensor) -> PreparedKernel:
         weight = torch.exp(self.log_weight)[:, None, :]  # [G, 1, P]
-        weighted_t = (self.basis(x2) * weight).transpose(-1, -2)  # [G, P, N]
+        weighted = (self.basis(x2) * weight).contiguous()  # [G, N, P]
 
         def cross(x1: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
             phi = self.basis(x1)  # [G, M, P]
-            return torch.matmul(phi, weighted_t), (phi.square() * weight).sum(-1)
+            # computed as k(X, x) [G, N, M], returned column-major (see PreparedKernel)
+            return torch.matmul(weighted, phi.mT).mT, (phi.square() * weight).sum(-1)
 
         return cross
 

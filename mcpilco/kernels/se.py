@@ -20,41 +20,44 @@ from mcpilco.kernels.base import (
 
 
 class _PreparedCross(torch.autograd.Function):
-    """K = exp(z1 (2 z2)ᵀ − |z1|² − offset) ``[G, M, N]`` with z1 = x1 ⊙ ι (inverse
+    """K = exp(2 z1·z2 − |z1|² − offset) ``[G, M, N]`` with z1 = x1 ⊙ ι (inverse
     length-scales ``[G, 1, D]``) and a hand-written backward: ∂K/∂z1 needs only K itself
-    (h = g ⊙ K; g_z1 = h (2 z2) − 2 z1 Σ_n h; g_x1 = Σ_G g_z1 ⊙ ι), which saves autograd's
-    temporaries on the largest tensor of a rollout step. Training-side arguments and ι
-    are constants (no gradient)."""
+    (h = g ⊙ K; g_z1 = h (2 z2) − 2 z1 Σ_n h, one product with the training side;
+    g_x1 = Σ_G g_z1 ⊙ ι), which saves autograd's temporaries on the largest tensor of a
+    rollout step. Training-side arguments and ι are constants (no gradient).
+
+    The exponent is one product of the training side ``[2 z2 | −1 | −offset]`` ``[G, N,
+    D+2]`` with ``[z1 | |z1|² | 1]``, computed as Kᵀ ``[G, N, M]`` and returned
+    transposed: K comes out in column-major layout, the one the triangular solves of a
+    whitened prediction take without a transposing copy, and the exp is a single pass
+    over contiguous memory."""
 
     @staticmethod
     def forward(
-        ctx: Any,
-        x1: torch.Tensor,
-        inverse_lengthscale: torch.Tensor,
-        twice_z2_t: torch.Tensor,
-        offset: torch.Tensor,
+        ctx: Any, x1: torch.Tensor, inverse_lengthscale: torch.Tensor, training: torch.Tensor
     ) -> torch.Tensor:
         z1 = x1 * inverse_lengthscale  # [G, M, D]
-        covariance = _PreparedCross.covariance(z1, twice_z2_t, offset)
-        ctx.save_for_backward(inverse_lengthscale, z1, twice_z2_t, covariance)
+        covariance = _PreparedCross.covariance(z1, training)
+        ctx.save_for_backward(inverse_lengthscale, z1, training, covariance)
         return covariance
 
     @staticmethod
-    def covariance(
-        z1: torch.Tensor, twice_z2_t: torch.Tensor, offset: torch.Tensor
-    ) -> torch.Tensor:
-        exponent = torch.matmul(z1, twice_z2_t).sub_(offset)  # in-place broadcast: no copy
-        exponent.sub_(z1.square().sum(-1, keepdim=True))
-        return exponent.exp_()
+    def covariance(z1: torch.Tensor, training: torch.Tensor) -> torch.Tensor:
+        """K ``[G, M, N]`` (column-major) from z1 ``[G, M, D]`` and the training side."""
+        augmented = torch.cat(
+            [z1, z1.square().sum(-1, keepdim=True), torch.ones_like(z1[..., :1])], -1
+        )
+        return torch.matmul(training, augmented.mT).exp_().mT
 
     @staticmethod
     @once_differentiable
-    def backward(ctx: Any, grad: torch.Tensor) -> tuple[torch.Tensor, None, None, None]:
-        inverse_lengthscale, z1, twice_z2_t, covariance = ctx.saved_tensors
+    def backward(ctx: Any, grad: torch.Tensor) -> tuple[torch.Tensor, None, None]:
+        inverse_lengthscale, z1, training, covariance = ctx.saved_tensors
         weighted = grad * covariance  # [G, M, N]
-        grad_z1 = torch.matmul(weighted, twice_z2_t.transpose(-1, -2))
-        grad_z1 -= 2.0 * z1 * weighted.sum(-1, keepdim=True)
-        return (grad_z1 * inverse_lengthscale).sum(0), None, None, None
+        dim = z1.shape[-1]
+        grad_augmented = torch.matmul(weighted, training[..., : dim + 1])  # [G, M, D+1]
+        grad_z1 = grad_augmented[..., :dim].addcmul_(z1, grad_augmented[..., dim:], value=2.0)
+        return (grad_z1 * inverse_lengthscale).sum(0), None, None
 
 
 class SquaredExponential(Kernel):
@@ -97,11 +100,12 @@ class SquaredExponential(Kernel):
 
     def prepare(self, x2: torch.Tensor) -> PreparedKernel:
         """k(x1, x2) = exp(2 z1·z2 − |z1|² − (|z2|² − log λ²)) with z = x/ℓ; the x2 terms
-        are computed once, leaving one batched matmul and one exp per call."""
+        are computed once, leaving one batched matmul and one exp per call
+        (:class:`_PreparedCross`)."""
         inverse_lengthscale = torch.exp(-self.log_lengthscale)[:, None, :]  # [G, 1, D]
         z2 = select_dims(x2, self.active_dims) * inverse_lengthscale  # [G, N, D]
-        offset = (z2.square().sum(-1) - self.log_variance[:, None]).unsqueeze(-2)  # [G, 1, N]
-        twice_z2_t = (2.0 * z2).transpose(-1, -2)  # [G, D, N]
+        offset = z2.square().sum(-1, keepdim=True) - self.log_variance[:, None, None]  # [G, N, 1]
+        training = torch.cat([2.0 * z2, -torch.ones_like(offset), -offset], -1)  # [G, N, D+2]
         prior_variance = torch.exp(self.log_variance)[:, None]  # [G, 1]
         dims = self.active_dims
 
@@ -109,8 +113,7 @@ class SquaredExponential(Kernel):
             covariance = _PreparedCross.apply(
                 select_dims(x1, dims),
                 inverse_lengthscale.detach(),
-                twice_z2_t.detach(),
-                offset.detach(),
+                training.detach().contiguous(),
             )
             return covariance, prior_variance.expand(-1, x1.shape[-2])
 
