@@ -187,8 +187,10 @@ def test_inconsistent_estimator_configs_fail_with_the_key() -> None:
     [
         ["estimator=zero_phase", "system.measured_indices=[0,2]", "estimator.cutoff_hz=5.0"],
         ["estimator=kalman", "system.measured_indices=[0,2]", "estimator.jerk_psd=1e3"],
-        # DF: histories of noisy readings; its GP (tiny noise) evaluates Ĵ with ~1e-10
-        # round-off, so the difference step is larger and the tolerance looser
+        # DF: histories of noisy readings; its GP (noise variance ~2e-6) evaluates Ĵ with
+        # ~1e-10 round-off: a difference over h = 1e-4 errs by 0.8-1.5 % (measured on two
+        # product orders), over h = 3e-3 by 1e-4-6e-4 — hence that step, and a looser
+        # tolerance
         ["+experiment=cartpole_df", "system.dt=0.05"],
     ],
     ids=["zero_phase", "kalman", "derivative_free"],
@@ -206,7 +208,7 @@ def test_policy_gradient_through_simulated_sensors_matches_finite_differences(
     from mcpilco.optim.rollout import ParticleRollout
     from tests.test_config import CONFIG_DIR
 
-    step, tolerance = (1e-4, 1e-2) if "+experiment=cartpole_df" in overrides else (1e-6, 1e-5)
+    step, tolerance = (3e-3, 1e-2) if "+experiment=cartpole_df" in overrides else (1e-6, 1e-5)
     overrides = [*overrides, "system.trial_duration=0.4"]
     with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
         experiment = build(compose("train", overrides=overrides))
