@@ -16,7 +16,7 @@ from mcpilco.kernels import (
     SquaredExponential,
     Sum,
 )
-from mcpilco.kernels.se import _PreparedCross
+from mcpilco.kernels.se import COLUMN_MAJOR_FROM, _PreparedCross
 
 
 def basis(x: torch.Tensor) -> torch.Tensor:
@@ -68,7 +68,11 @@ def test_prepared_kernel_equals_forward(name: str, inputs: torch.Tensor) -> None
     cross, prior = kernel.prepare(inputs[:5])(inputs)
     torch.testing.assert_close(cross, kernel(inputs, inputs[:5]))
     torch.testing.assert_close(prior, kernel.diag(inputs))
-    # column-major, the layout the predictions' solves take without a copy (PreparedKernel)
+    # a particle batch comes column-major, the layout the predictions' solves take
+    # without a copy (PreparedKernel); the SE kernel gives fewer points row-major
+    batch = torch.randn(COLUMN_MAJOR_FROM, 3, generator=torch.Generator().manual_seed(3))
+    cross, _ = kernel.prepare(inputs[:5])(batch.to(inputs.dtype))
+    torch.testing.assert_close(cross, kernel(batch.to(inputs.dtype), inputs[:5]))
     assert cross.mT.is_contiguous(), cross.stride()
 
 
