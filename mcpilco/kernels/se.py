@@ -34,10 +34,11 @@ class _PreparedCross(torch.autograd.Function):
     rollout step. Training-side arguments and ι are constants (no gradient).
 
     The exponent is one product of the training side ``[2 z2 | −1 | −offset]`` ``[G, N,
-    D+2]`` with ``[z1 | |z1|² | 1]``, computed as Kᵀ ``[G, N, M]`` and returned
-    transposed: K comes out in column-major layout, the one the triangular solves of a
-    whitened prediction take without a transposing copy, and the exp is a single pass
-    over contiguous memory."""
+    D+2]`` with ``[z1 | |z1|² | 1]``, for a particle batch computed as Kᵀ ``[G, N, M]``
+    and returned transposed: K comes out in column-major layout, the one the triangular
+    solves of a whitened prediction take without a transposing copy, and the exp is a
+    single pass over contiguous memory (fewer points: row-major, see
+    :data:`COLUMN_MAJOR_FROM`)."""
 
     @staticmethod
     def forward(
