@@ -16,7 +16,8 @@ from mcpilco.kernels import (
     SquaredExponential,
     Sum,
 )
-from mcpilco.kernels.se import COLUMN_MAJOR_FROM, _PreparedCross
+from mcpilco.kernels.base import COLUMN_MAJOR_FROM
+from mcpilco.kernels.se import _PreparedCross
 
 
 def basis(x: torch.Tensor) -> torch.Tensor:
@@ -69,7 +70,7 @@ def test_prepared_kernel_equals_forward(name: str, inputs: torch.Tensor) -> None
     torch.testing.assert_close(cross, kernel(inputs, inputs[:5]))
     torch.testing.assert_close(prior, kernel.diag(inputs))
     # a particle batch comes column-major, the layout the predictions' solves take
-    # without a copy (PreparedKernel); the SE kernel gives fewer points row-major
+    # without a copy (PreparedKernel); fewer points may come row-major (cross_product)
     batch = torch.randn(COLUMN_MAJOR_FROM, 3, generator=torch.Generator().manual_seed(3))
     cross, _ = kernel.prepare(inputs[:5])(batch.to(inputs.dtype))
     torch.testing.assert_close(cross, kernel(batch.to(inputs.dtype), inputs[:5]))

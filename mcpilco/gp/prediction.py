@@ -51,8 +51,8 @@ def _cross_gradient(
 class _MeanAndQuadratic(torch.autograd.Function):
     @staticmethod
     def forward(ctx: Any, cross: torch.Tensor, solve: torch.Tensor) -> tuple[torch.Tensor, ...]:
-        weighted, mean, quadratic = _products(cross, solve)
-        ctx.save_for_backward(weighted, solve)
+        weighted_t, mean, quadratic = _products(cross, solve)
+        ctx.save_for_backward(weighted_t, solve)
         return mean, quadratic
 
     @staticmethod
@@ -60,8 +60,8 @@ class _MeanAndQuadratic(torch.autograd.Function):
     def backward(
         ctx: Any, grad_mean: torch.Tensor, grad_quadratic: torch.Tensor
     ) -> tuple[torch.Tensor, None]:
-        weighted, solve = ctx.saved_tensors
-        return _cross_gradient(weighted, solve[..., -1], grad_mean, grad_quadratic), None
+        weighted_t, solve = ctx.saved_tensors
+        return _cross_gradient(weighted_t, solve[..., -1], grad_mean, grad_quadratic), None
 
 
 def mean_and_quadratic(
@@ -89,19 +89,19 @@ class _PosteriorSample(torch.autograd.Function):
         solve: torch.Tensor,
         noise: torch.Tensor,
     ) -> torch.Tensor:
-        weighted, mean, quadratic = _products(cross, solve)
+        weighted_t, mean, quadratic = _products(cross, solve)
         variance = prior_variance - quadratic
         clamped = variance < VARIANCE_FLOOR
         std = variance.clamp_min_(VARIANCE_FLOOR).sqrt_()
-        ctx.save_for_backward(weighted, solve, noise, std, clamped)
+        ctx.save_for_backward(weighted_t, solve, noise, std, clamped)
         return torch.addcmul(mean, std, noise)
 
     @staticmethod
     @once_differentiable
     def backward(ctx: Any, grad: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, None, None]:
-        weighted, solve, noise, std, clamped = ctx.saved_tensors
+        weighted_t, solve, noise, std, clamped = ctx.saved_tensors
         grad_variance = (grad * noise).div_(std).mul_(0.5).masked_fill_(clamped, 0.0)  # [G, M]
-        grad_cross = _cross_gradient(weighted, solve[..., -1], grad, -grad_variance)
+        grad_cross = _cross_gradient(weighted_t, solve[..., -1], grad, -grad_variance)
         return grad_cross, grad_variance, None, None
 
 

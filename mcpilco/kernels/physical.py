@@ -7,7 +7,7 @@ from collections.abc import Sequence
 import torch
 
 from mcpilco.errors import ConfigError
-from mcpilco.kernels.base import Kernel, KernelShape, PreparedKernel
+from mcpilco.kernels.base import Kernel, KernelShape, PreparedKernel, cross_product
 
 
 class PhysicalBasis(Kernel):
@@ -44,12 +44,11 @@ class PhysicalBasis(Kernel):
 
     def prepare(self, x2: torch.Tensor) -> PreparedKernel:
         weight = torch.exp(self.log_weight)[:, None, :]  # [G, 1, P]
-        weighted = (self.basis(x2) * weight).contiguous()  # [G, N, P]
+        weighted = self.basis(x2) * weight  # [G, N, P]
 
         def cross(x1: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
             phi = self.basis(x1)  # [G, M, P]
-            # computed as k(X, x) [G, N, M], returned column-major (see PreparedKernel)
-            return torch.matmul(weighted, phi.mT).mT, (phi.square() * weight).sum(-1)
+            return cross_product(weighted, phi), (phi.square() * weight).sum(-1)
 
         return cross
 

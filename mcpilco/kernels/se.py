@@ -14,16 +14,10 @@ from mcpilco.kernels.base import (
     KernelShape,
     PreparedKernel,
     check_dims,
+    cross_product,
     select_dims,
     squared_distances,
 )
-
-COLUMN_MAJOR_FROM = 16
-"""Batches of at least this many test points get the SE cross-covariance column-major
-(:data:`~mcpilco.kernels.base.PreparedKernel`), fewer get it row-major. Measured, one
-thread: from M = 16 on the column-major product is as fast or faster at rollout shapes
-(N ≤ 300, float32); at M ≤ 9 the row-major one is as fast or up to 2× faster (N = 5000,
-float64: the torque controllers)."""
 
 
 class _PreparedCross(torch.autograd.Function):
@@ -34,11 +28,10 @@ class _PreparedCross(torch.autograd.Function):
     rollout step. Training-side arguments and ι are constants (no gradient).
 
     The exponent is one product of the training side ``[2 z2 | −1 | −offset]`` ``[G, N,
-    D+2]`` with ``[z1 | |z1|² | 1]``, for a particle batch computed as Kᵀ ``[G, N, M]``
-    and returned transposed: K comes out in column-major layout, the one the triangular
-    solves of a whitened prediction take without a transposing copy, and the exp is a
-    single pass over contiguous memory (fewer points: row-major, see
-    :data:`COLUMN_MAJOR_FROM`)."""
+    D+2]`` with ``[z1 | |z1|² | 1]`` (:func:`~mcpilco.kernels.base.cross_product`: for a
+    particle batch computed as Kᵀ ``[G, N, M]`` and returned column-major, the layout the
+    triangular solves of a whitened prediction take without a transposing copy), then one
+    exp pass over its memory."""
 
     @staticmethod
     def forward(
@@ -51,16 +44,11 @@ class _PreparedCross(torch.autograd.Function):
 
     @staticmethod
     def covariance(z1: torch.Tensor, training: torch.Tensor) -> torch.Tensor:
-        """K ``[G, M, N]`` from z1 ``[G, M, D]`` and the training side: column-major for a
-        batch of :data:`COLUMN_MAJOR_FROM` or more test points, row-major for fewer (there
-        the row-major product is up to 2× faster: measured at N = 5000, float64, M ≤ 9,
-        the torque controllers' case; no triangular solve follows it there)."""
+        """K ``[G, M, N]`` from z1 ``[G, M, D]`` and the training side."""
         augmented = torch.cat(
             [z1, z1.square().sum(-1, keepdim=True), torch.ones_like(z1[..., :1])], -1
         )
-        if z1.shape[-2] < COLUMN_MAJOR_FROM:
-            return torch.matmul(augmented, training.mT).exp_()
-        return torch.matmul(training, augmented.mT).exp_().mT
+        return cross_product(training, augmented).exp_()
 
     @staticmethod
     @once_differentiable
@@ -115,7 +103,8 @@ class SquaredExponential(Kernel):
         """k(x1, x2) = exp(2 z1·z2 − |z1|² − (|z2|² − log λ²)) with z = x/ℓ; the x2 terms
         are computed once, leaving one batched matmul and one exp per call
         (:class:`_PreparedCross`)."""
-        inverse_lengthscale = torch.exp(-self.log_lengthscale)[:, None, :]  # [G, 1, D]
+        # constants of the predictions (no gradient): detached once, not per call
+        inverse_lengthscale = torch.exp(-self.log_lengthscale).detach()[:, None, :]  # [G, 1, D]
         z2 = select_dims(x2, self.active_dims) * inverse_lengthscale  # [G, N, D]
         offset = z2.square().sum(-1, keepdim=True) - self.log_variance[:, None, None]  # [G, N, 1]
         training = torch.cat([2.0 * z2, -torch.ones_like(offset), -offset], -1)  # [G, N, D+2]
@@ -123,11 +112,7 @@ class SquaredExponential(Kernel):
         dims = self.active_dims
 
         def cross(x1: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-            covariance = _PreparedCross.apply(
-                select_dims(x1, dims),
-                inverse_lengthscale.detach(),
-                training.detach().contiguous(),
-            )
+            covariance = _PreparedCross.apply(select_dims(x1, dims), inverse_lengthscale, training)
             return covariance, prior_variance.expand(-1, x1.shape[-2])
 
         return cross
