@@ -232,8 +232,13 @@ def test_pytorch_warnings_reach_the_run_log(tmp_path: Path) -> None:
         log_torch_warnings_to_files()  # idempotent: one line per warning
         logging.getLogger("torch._dynamo.convert_frame").warning("hit config.recompile_limit")
         logging.getLogger("torch._dynamo.convert_frame").debug("not a warning")
+        trace = logging.getLogger("torch.__trace")  # logs at DEBUG on its own (level DEBUG)
+        assert trace.isEnabledFor(logging.DEBUG)
+        trace.debug("a compiler trace record")
     finally:
         for logger in [root, *map(logging.getLogger, list(logging.root.manager.loggerDict))]:
             logger.removeHandler(handler)
+            for forward in [h for h in logger.handlers if getattr(h, "target", None) is handler]:
+                logger.removeHandler(forward)
         handler.close()
     assert log_file.read_text().splitlines() == ["hit config.recompile_limit"]
