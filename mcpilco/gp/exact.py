@@ -36,6 +36,7 @@ class _PredictionCache:
     kernel: PreparedKernel  # x* [M, D] -> (k(x*, X) [G, M, N], k(x*, x*) [G, M])
     solve: torch.Tensor | None = None
     factor: torch.Tensor | None = None
+    upper_factor: torch.Tensor | None = None  # Lᵀ, contiguous (the forward solve's operand)
     whitened_targets: torch.Tensor | None = None
 
     def mean_and_variance(self, inputs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -44,9 +45,11 @@ class _PredictionCache:
         if self.solve is not None:
             mean, quadratic = mean_and_quadratic(cross, self.solve)
             return mean, (prior_variance - quadratic).clamp_min(VARIANCE_FLOOR)
-        assert self.factor is not None and self.whitened_targets is not None
-        mean, quadratic = whitened_mean_and_quadratic(cross, self.factor, self.whitened_targets)
-        floor = precision_floor(prior_variance, self.factor.shape[-1])
+        assert self.upper_factor is not None and self.whitened_targets is not None
+        mean, quadratic = whitened_mean_and_quadratic(
+            cross, self.upper_factor, self.whitened_targets
+        )
+        floor = precision_floor(prior_variance, self.upper_factor.shape[-1])
         return mean, torch.maximum(prior_variance - quadratic, floor)
 
     def sample(self, inputs: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
@@ -54,9 +57,10 @@ class _PredictionCache:
         cross, prior_variance = self.kernel(inputs)
         if self.solve is not None:
             return posterior_sample(cross, prior_variance, self.solve, noise)
-        assert self.factor is not None and self.whitened_targets is not None
+        assert self.factor is not None and self.upper_factor is not None
+        assert self.whitened_targets is not None
         return whitened_posterior_sample(
-            cross, prior_variance, self.factor, self.whitened_targets, noise
+            cross, prior_variance, self.factor, self.upper_factor, self.whitened_targets, noise
         )
 
 
@@ -151,6 +155,7 @@ class ExactGP(nn.Module):
             return _PredictionCache(
                 prepared,
                 factor=factor.to(dtype).contiguous(),
+                upper_factor=factor.mT.to(dtype).contiguous(),
                 whitened_targets=whitened.to(dtype).contiguous(),
             )
         inverse_gram = torch.cholesky_inverse(factor)

@@ -140,10 +140,11 @@ def precision_floor(prior_variance: torch.Tensor, num_train: int) -> torch.Tenso
 
 
 def _whitened_products(
-    cross: torch.Tensor, factor: torch.Tensor, whitened_targets: torch.Tensor
+    cross: torch.Tensor, upper_factor: torch.Tensor, whitened_targets: torch.Tensor
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """v = L⁻¹ k* as rows ``[G, M, N]`` (v Lᵀ = k*), mean vᵀβ and quadratic ‖v‖² ``[G, M]``."""
-    whitened = torch.linalg.solve_triangular(factor.mT, cross, upper=True, left=False)
+    """v = L⁻¹ k* as rows ``[G, M, N]`` (v Lᵀ = k*; ``upper_factor`` Lᵀ, contiguous), mean
+    vᵀβ and quadratic ‖v‖² ``[G, M]``."""
+    whitened = torch.linalg.solve_triangular(upper_factor, cross, upper=True, left=False)
     mean = torch.linalg.vecdot(whitened, whitened_targets.unsqueeze(-2))
     return whitened, mean, whitened.square().sum(-1)
 
@@ -168,10 +169,11 @@ class _WhitenedPosteriorSample(torch.autograd.Function):
         cross: torch.Tensor,
         prior_variance: torch.Tensor,
         factor: torch.Tensor,
+        upper_factor: torch.Tensor,
         whitened_targets: torch.Tensor,
         noise: torch.Tensor,
     ) -> torch.Tensor:
-        whitened, mean, quadratic = _whitened_products(cross, factor, whitened_targets)
+        whitened, mean, quadratic = _whitened_products(cross, upper_factor, whitened_targets)
         variance = prior_variance - quadratic
         floor = precision_floor(prior_variance, factor.shape[-1])
         clamped = variance < floor
@@ -183,19 +185,20 @@ class _WhitenedPosteriorSample(torch.autograd.Function):
     @once_differentiable
     def backward(
         ctx: Any, grad: torch.Tensor
-    ) -> tuple[torch.Tensor, torch.Tensor, None, None, None]:
+    ) -> tuple[torch.Tensor, torch.Tensor, None, None, None, None]:
         whitened, factor, whitened_targets, noise, std, clamped = ctx.saved_tensors
         grad_variance = (grad * noise).div_(std).mul_(0.5).masked_fill_(clamped, 0.0)  # [G, M]
         grad_cross = _whitened_cross_gradient(
             whitened, factor, whitened_targets, grad, -grad_variance
         )
-        return grad_cross, grad_variance, None, None, None
+        return grad_cross, grad_variance, None, None, None, None
 
 
 def whitened_posterior_sample(
     cross: torch.Tensor,
     prior_variance: torch.Tensor,
     factor: torch.Tensor,
+    upper_factor: torch.Tensor,
     whitened_targets: torch.Tensor,
     noise: torch.Tensor,
 ) -> torch.Tensor:
@@ -204,18 +207,25 @@ def whitened_posterior_sample(
     Args:
         cross: k(x*, X) ``[G, M, N]``. prior_variance: k(x*, x*) ``[G, M]``.
         factor: lower Cholesky factor L of Γ ``[G, N, N]`` (a constant).
+        upper_factor: Lᵀ, stored contiguous: MKL's solve with it is ~6 % faster than with
+            the transposed view of L (measured, float32, N = 300, M = 400, one thread).
         whitened_targets: β = L⁻¹ y ``[G, N]`` (a constant).
         noise: standard normal ``[G, M]`` (constant).
     """
     return _WhitenedPosteriorSample.apply(
-        cross, prior_variance, factor.detach(), whitened_targets.detach(), noise.detach()
+        cross,
+        prior_variance,
+        factor.detach(),
+        upper_factor.detach(),
+        whitened_targets.detach(),
+        noise.detach(),
     )
 
 
 def whitened_mean_and_quadratic(
-    cross: torch.Tensor, factor: torch.Tensor, whitened_targets: torch.Tensor
+    cross: torch.Tensor, upper_factor: torch.Tensor, whitened_targets: torch.Tensor
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """``(k* α, diag(k* Γ⁻¹ k*ᵀ))`` ``[G, M]`` each, in the whitened form (plain autograd;
     the variance k** − quadratic is to be floored with :func:`precision_floor`)."""
-    _, mean, quadratic = _whitened_products(cross, factor.detach(), whitened_targets.detach())
+    _, mean, quadratic = _whitened_products(cross, upper_factor.detach(), whitened_targets.detach())
     return mean, quadratic
