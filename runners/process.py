@@ -5,6 +5,7 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import logging
+from pathlib import Path
 
 log = logging.getLogger(__name__)
 
@@ -33,6 +34,22 @@ def keep_freed_memory(limit_bytes: int = 1 << 34) -> bool:
     ok = ok and bool(mallopt(_M_TRIM_THRESHOLD, min(limit_bytes, (1 << 31) - 1)))
     log.debug("glibc mallopt keep-freed-memory: %s", ok)
     return ok
+
+
+def also_log_to(path: Path) -> None:
+    """Append the root logger's records to ``path`` too, formatted like its first file
+    handler's (Hydra's). A resumed run logs to a new Hydra directory; this keeps the
+    resumed trials in the run directory's own train.log. Idempotent."""
+    root = logging.getLogger()
+    files = [h for h in root.handlers if isinstance(h, logging.FileHandler)]
+    target = path.resolve()
+    if any(Path(h.baseFilename) == target for h in files):
+        return
+    handler = logging.FileHandler(target, mode="a", encoding="utf-8")
+    if files:
+        handler.setFormatter(files[0].formatter)
+        handler.setLevel(files[0].level)
+    root.addHandler(handler)
 
 
 class WarningsTo(logging.Handler):

@@ -20,7 +20,7 @@ from mcpilco.tracking.base import TrialObserver
 from mcpilco.tracking.metadata import run_metadata
 from mcpilco.trial_loop import TrialLoop
 from runners.failures import run_reporting_failures
-from runners.process import keep_freed_memory, log_torch_warnings_to_files
+from runners.process import also_log_to, keep_freed_memory, log_torch_warnings_to_files
 
 CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.train")
@@ -158,9 +158,11 @@ def main(cfg: DictConfig) -> None:
     directory (a refused second process leaves the live run's directory alone); in a sweep
     the error is re-raised so Hydra records the job as failed and runs the others."""
     keep_freed_memory()
-    log_torch_warnings_to_files()
     hydra_config = HydraConfig.get()
     run_dir = Path(cfg.resume) if cfg.get("resume") else Path(hydra_config.runtime.output_dir)
+    if cfg.get("resume") and run_dir.is_dir():
+        also_log_to(run_dir / "train.log")  # the resumed trials' log beside the earlier ones
+    log_torch_warnings_to_files()
     run_reporting_failures(lambda: train(cfg), run_dir, resume_hint=True)
 
 

@@ -144,6 +144,11 @@ def test_resume_continues_exactly_like_an_uninterrupted_run(tmp_path: Path) -> N
     assert first.returncode == 0
     resumed = run_train("num_trials=2", f"resume={part}", f"hydra.run.dir={tmp_path / 'other'}")
     assert resumed.returncode == 0, resumed.stderr[-2000:]
+    # the resumed trial is logged in the run directory's own train.log, after trial 1
+    lines = (part / "train.log").read_text().splitlines()
+    first = [i for i, line in enumerate(lines) if "] - trial 1: {" in line]
+    second = [i for i, line in enumerate(lines) if "] - trial 2: {" in line]
+    assert len(first) == 1 and len(second) == 1 and first[0] < second[0]
     expected = pd.read_csv(whole / "summary.csv").drop(columns=["timestamp"])
     got = pd.read_csv(part / "summary.csv").drop(columns=["timestamp"])
     assert got["trial"].tolist() == [0, 1, 2]
