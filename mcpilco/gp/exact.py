@@ -35,8 +35,11 @@ class _PredictionCache:
 
     kernel: PreparedKernel  # x* [M, D] -> (k(x*, X) [G, M, N], k(x*, x*) [G, M])
     solve: torch.Tensor | None = None
+    # L and Lᵀ, each stored contiguous: MKL's float32 solve is faster with the operand
+    # contiguous than with a transposed view (forward, Lᵀ: 1.15 vs 1.22 ms; backward, L:
+    # 1.17 vs 1.21 ms at N = 300, M = 400, one thread), so both are kept
     factor: torch.Tensor | None = None
-    upper_factor: torch.Tensor | None = None  # Lᵀ, contiguous (the forward solve's operand)
+    upper_factor: torch.Tensor | None = None
     whitened_targets: torch.Tensor | None = None
 
     def mean_and_variance(self, inputs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:

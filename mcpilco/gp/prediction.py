@@ -206,9 +206,11 @@ def whitened_posterior_sample(
 
     Args:
         cross: k(x*, X) ``[G, M, N]``. prior_variance: k(x*, x*) ``[G, M]``.
-        factor: lower Cholesky factor L of Γ ``[G, N, N]`` (a constant).
-        upper_factor: Lᵀ, stored contiguous: MKL's solve with it is ~6 % faster than with
-            the transposed view of L (measured, float32, N = 300, M = 400, one thread).
+        factor: lower Cholesky factor L of Γ ``[G, N, N]``, contiguous (a constant; the
+            backward solve's operand).
+        upper_factor: Lᵀ, stored contiguous (the forward solve's operand): MKL's solve is
+            ~6 % faster with it than with the transposed view of L (float32, N = 300,
+            M = 400, one thread).
         whitened_targets: β = L⁻¹ y ``[G, N]`` (a constant).
         noise: standard normal ``[G, M]`` (constant).
     """
