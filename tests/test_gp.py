@@ -106,6 +106,29 @@ def test_reduction_keeps_exactly_the_uncertain_samples() -> None:
     assert gp.train_inputs.shape[0] == len(kept) < len(x)
 
 
+@pytest.mark.parametrize(("std_over_threshold", "expected"), [(1.2, 25), (0.8, 1)])
+def test_a_white_noise_like_se_term_above_threshold_keeps_every_sample(
+    std_over_threshold: float, expected: int
+) -> None:
+    """The UR5 DF trial-3 fit (docs/results/ur5_df/): an SE term with length-scales ~1e-7
+    has zero covariance between distinct samples, so its variance is latent variance left
+    at every sample whatever is kept: above β² every sample stays, below it only the first.
+    The probe's per-output LU recount agrees with the incremental Cholesky."""
+    from analysis.reduction_probe import greedy_kept
+
+    threshold = 1e-3
+    gp, _, _ = make_gp(outputs=1)
+    gp.kernel = SquaredExponential(
+        KernelShape(1, 3), lengthscale=1e-7, variance=(std_over_threshold * threshold) ** 2
+    ).double()
+    with torch.no_grad():
+        gp.raw_noise.fill_(-30.0)  # noise at its floor, as in the UR5 fit
+        gram = gp.kernel(gp.train_inputs, gp.train_inputs)[0]
+    assert float((gram - torch.diag(torch.diagonal(gram))).abs().max()) == 0.0
+    recount = greedy_kept(gram, float(gp.noise_variance.detach()[0]), threshold)
+    assert recount == expected == len(reduce_dataset(gp, threshold))
+
+
 def test_fused_prediction_gradients(generator: torch.Generator) -> None:
     from mcpilco.gp.prediction import mean_and_quadratic, posterior_sample, solve_matrix
 
