@@ -19,6 +19,7 @@ from omegaconf import OmegaConf
 
 from mcpilco.build import build
 from mcpilco.gp.reduction import reduce_dataset
+from mcpilco.kernels import SquaredExponential
 
 
 def greedy_kept(gram: torch.Tensor, noise: float, threshold: float) -> int:
@@ -50,14 +51,16 @@ def main(run: str, trial: str, write: Callable[[str], object] = sys.stdout.write
         write(f"N {inputs.shape[0]}, β {threshold}; kept per output alone: {counts}\n")
         write(f"noise variance per output: {[f'{v:.3g}' for v in noise.tolist()]}\n")
         worst = max(range(len(counts)), key=counts.__getitem__)
-        se_gram = gp.kernel.terms[0](inputs, inputs)[worst]
-        off_diagonal = se_gram - torch.diag(torch.diagonal(se_gram))
-        lengthscales = sorted(state["kernel.terms.0.log_lengthscale"][worst].tolist())[:3]
-        write(
-            f"output {worst + 1}: SE variance {float(se_gram[0, 0]):.3g}, largest SE "
-            f"covariance between distinct samples {float(off_diagonal.abs().max()):.3g}, "
-            f"smallest log length-scales {[round(v, 1) for v in lengthscales]}\n"
-        )
+        terms = getattr(gp.kernel, "terms", [gp.kernel])  # a Sum's terms, or the kernel
+        for term in (t for t in terms if isinstance(t, SquaredExponential)):
+            se_gram = term(inputs, inputs)[worst]
+            off_diagonal = se_gram - torch.diag(torch.diagonal(se_gram))
+            lengthscales = sorted(term.log_lengthscale[worst].tolist())[:3]
+            write(
+                f"output {worst + 1}: SE variance {float(se_gram[0, 0]):.3g}, largest SE "
+                f"covariance between distinct samples {float(off_diagonal.abs().max()):.3g}, "
+                f"smallest log length-scales {[round(v, 1) for v in lengthscales]}\n"
+            )
         write(f"reduce_dataset keeps {len(reduce_dataset(gp, threshold))}\n")
 
 
