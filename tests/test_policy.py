@@ -9,7 +9,7 @@ from torch.autograd import gradcheck
 
 from mcpilco.errors import ConfigError
 from mcpilco.policies import SquashedRBFPolicy, UniformRandomExploration
-from mcpilco.policies.rbf import _SquashedRBF
+from mcpilco.policies.rbf_network import SquashedRBFFunction
 
 
 def make_policy(generator: torch.Generator, u_max: float = 3.0) -> SquashedRBFPolicy:
@@ -69,7 +69,7 @@ def test_gradcheck_fused_policy(generator: torch.Generator) -> None:
         weights = torch.randn(5, actions, generator=generator, dtype=dtype, requires_grad=True)
         for mask_bits, threshold in ((bits, 64), (None, 0)):
             assert gradcheck(
-                lambda *a, b=mask_bits, k=threshold: _SquashedRBF.apply(*a, b, k, 3.0),
+                lambda *a, b=mask_bits, k=threshold: SquashedRBFFunction.apply(*a, b, k, 3.0),
                 (x, inverse, twice_centres_t, offset, weights),
             )
 
