@@ -91,7 +91,7 @@ def test_compiled_rollout_matches_eager_through_dropout_changes_and_refits(
                     expected = eager(PARTICLES, 0.0, torch.Generator().manual_seed(seed))
                     got = compiled(PARTICLES, 0.0, torch.Generator().manual_seed(seed))
                 assert float(got.total_cost) == float(expected.total_cost)  # both eager
-                assert compiled.compile  # it did not try (and fail) to compile a graph
+                assert compiled.compiler.compile  # it did not try (and fail) to compile a graph
                 continue
             with frozen(c.model):
                 cost, gradient = cost_and_gradient(eager, float(dropout), seed)
@@ -103,7 +103,7 @@ def test_compiled_rollout_matches_eager_through_dropout_changes_and_refits(
             torch.testing.assert_close(
                 gradient_compiled, gradient, rtol=rel_gradient, atol=abs_gradient
             )
-            assert compiled.compile  # never fell back to eager
+            assert compiled.compiler.compile  # never fell back to eager
 
 
 def test_a_failing_compiler_falls_back_to_eager_with_a_warning(
@@ -116,19 +116,19 @@ def test_a_failing_compiler_falls_back_to_eager_with_a_warning(
     rollout = ParticleRollout.for_system(
         c.system, c.model, c.policy, c.cost, c.estimator, compile=True
     )
-    rollout.compile = False
+    rollout.compiler.compile = False
     with frozen(c.model):
         reference = cost_and_gradient(rollout, 0.25, 0)
 
     def broken(*args: object) -> torch.Tensor:
         raise RuntimeError("no C++ compiler")
 
-    rollout.compile = True
-    rollout._compiled["_state_step"] = broken
+    rollout.compiler.compile = True
+    rollout.compiler._compiled["_state_step"] = broken
     with caplog.at_level(logging.WARNING), frozen(c.model):
         cost, gradient = cost_and_gradient(rollout, 0.25, 0)
     assert "running eagerly" in caplog.text and "no C++ compiler" in caplog.text
-    assert not rollout.compile
+    assert not rollout.compiler.compile
     assert cost == reference[0]
     torch.testing.assert_close(gradient, reference[1], rtol=0, atol=0)
 
@@ -154,7 +154,7 @@ def test_a_new_compiling_rollout_is_not_limited_by_the_graphs_of_an_earlier_run(
             )
             with frozen(c.model):
                 cost_and_gradient(rollout, 0.25, 0)
-            assert rollout.compile, overrides
+            assert rollout.compiler.compile, overrides
 
 
 def test_refits_of_a_run_never_use_up_the_graph_limit() -> None:
@@ -174,7 +174,7 @@ def test_refits_of_a_run_never_use_up_the_graph_limit() -> None:
                 for dropout in (0.25, 0.0):
                     cost, _ = cost_and_gradient(rollout, dropout, 0)
                     assert math.isfinite(cost)
-            assert rollout.compile, size  # never fell back to eager
+            assert rollout.compiler.compile, size  # never fell back to eager
 
 
 class _FailingBackward(torch.autograd.Function):
@@ -213,7 +213,7 @@ def test_a_backward_that_fails_to_compile_replays_the_step_eagerly(
             c.system, c.model, c.policy, c.cost, c.estimator, compile=compiled
         )
         if compiled:
-            rollout._compiled["_state_step"] = _failing_backward(rollout._state_step)
+            rollout.compiler._compiled["_state_step"] = _failing_backward(rollout._state_step)
         optimizer = PolicyOptimizer(
             num_particles=PARTICLES, max_steps=3, max_steps_first_trial=3, schedule=schedule
         )
@@ -224,5 +224,5 @@ def test_a_backward_that_fails_to_compile_replays_the_step_eagerly(
         assert result.steps == 3
         final.append(torch.cat([p.detach().flatten() for p in c.policy.parameters()]))
     assert "file too short" in caplog.text and "running eagerly" in caplog.text
-    assert not rollout.compile
+    assert not rollout.compiler.compile
     torch.testing.assert_close(final[1], final[0], rtol=0, atol=0)

@@ -154,17 +154,17 @@ def test_compile_choice_keeps_whichever_the_first_steps_timed_faster(
 
     from mcpilco.optim.compile_choice import CompileChoice
 
-    rollout = SimpleNamespace(compile=True, choose_compile=True, eager_chosen=True)
-    choice = CompileChoice(rollout, warmup=2, timed=3)  # type: ignore[arg-type]
+    compiler = SimpleNamespace(compile=True, choose_compile=True, eager_chosen=True)
+    choice = CompileChoice(compiler, warmup=2, timed=3)  # type: ignore[arg-type]
     modes = []
     for step in range(12):
         choice.before(step)
-        modes.append("eager" if rollout.eager_chosen else "compiled")
-        choice.after(step, (eager_ms if rollout.eager_chosen else compiled_ms) / 1e3)
+        modes.append("eager" if compiler.eager_chosen else "compiled")
+        choice.after(step, (eager_ms if compiler.eager_chosen else compiled_ms) / 1e3)
     # warm-up and timed compiled steps, timed eager steps, then the faster way for good
     assert modes[:8] == ["compiled"] * 5 + ["eager"] * 3
     assert modes[8:] == ["eager" if eager_chosen else "compiled"] * 4
-    assert choice.decided and rollout.eager_chosen is eager_chosen
+    assert choice.decided and compiler.eager_chosen is eager_chosen
 
 
 @pytest.mark.parametrize(
@@ -178,9 +178,9 @@ def test_compile_choice_acts_only_on_compile_auto(compile: bool, choose: bool) -
 
     from mcpilco.optim.compile_choice import CompileChoice
 
-    rollout = SimpleNamespace(compile=compile, choose_compile=choose, eager_chosen=False)
-    choice = CompileChoice(rollout)  # type: ignore[arg-type]
+    compiler = SimpleNamespace(compile=compile, choose_compile=choose, eager_chosen=False)
+    choice = CompileChoice(compiler)  # type: ignore[arg-type]
     for step in range(10):
         choice.before(step)
-        choice.after(step, 1.0 if rollout.eager_chosen else 2.0)
-    assert choice.decided and not rollout.eager_chosen and not choice.eager_seconds
+        choice.after(step, 1.0 if compiler.eager_chosen else 2.0)
+    assert choice.decided and not compiler.eager_chosen and not choice.eager_seconds

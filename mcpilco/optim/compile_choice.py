@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from mcpilco.optim.rollout import ParticleRollout
+    from mcpilco.optim.step_compiler import StepCompiler
 
 log = logging.getLogger(__name__)
 
@@ -29,11 +29,12 @@ class CompileChoice:
     two ways differ by rounding).
 
     Args:
-        rollout: the rollout being optimised.
+        compiler: the rollout's :class:`~mcpilco.optim.step_compiler.StepCompiler` (None: a
+            rollout without one, which is left as it is).
         warmup, timed: step counts, see above.
     """
 
-    rollout: ParticleRollout
+    compiler: StepCompiler | None
     warmup: int = 2
     timed: int = 3
     compiled_seconds: list[float] = field(default_factory=list)
@@ -41,36 +42,35 @@ class CompileChoice:
     decided: bool = False
 
     def __post_init__(self) -> None:
-        # a rollout built with compile="auto" only; a user's rollout may lack the attributes
+        # a rollout built with compile="auto" only (None: a user's rollout without a compiler)
         self.decided = not (
-            getattr(self.rollout, "compile", False)
-            and getattr(self.rollout, "choose_compile", False)
+            self.compiler is not None and self.compiler.compile and self.compiler.choose_compile
         )
         if not self.decided:
-            self.rollout.eager_chosen = False
+            self.compiler.eager_chosen = False
 
     def before(self, step: int) -> None:
         """Set the rollout up for step ``step`` (0-based, within this trial or stage)."""
         if not self.decided:
-            self.rollout.eager_chosen = step >= self.warmup + self.timed
+            self.compiler.eager_chosen = step >= self.warmup + self.timed
 
     def after(self, step: int, seconds: float) -> None:
         """Record the wall time of step ``step``; choose once both ways are timed."""
         if self.decided or step < self.warmup:
             return
-        if not self.rollout.compile:  # the compiler failed meanwhile: eager it is
+        if not self.compiler.compile:  # the compiler failed meanwhile: eager it is
             self.decided = True
             return
-        timed = self.eager_seconds if self.rollout.eager_chosen else self.compiled_seconds
+        timed = self.eager_seconds if self.compiler.eager_chosen else self.compiled_seconds
         timed.append(seconds)
         if len(self.eager_seconds) == self.timed:
             compiled = statistics.median(self.compiled_seconds)
             eager = statistics.median(self.eager_seconds)
-            self.rollout.eager_chosen = eager < compiled
+            self.compiler.eager_chosen = eager < compiled
             self.decided = True
             log.info(
                 "step %.1f ms compiled, %.1f ms eager: running %s",
                 compiled * 1e3,
                 eager * 1e3,
-                "eagerly" if self.rollout.eager_chosen else "compiled",
+                "eagerly" if self.compiler.eager_chosen else "compiled",
             )

@@ -149,7 +149,7 @@ class PolicyOptimizer(PolicySearch):
         schedule = MonitoringSchedule(**schedule_options)
         optimizer = torch.optim.Adam(policy.parameters(), lr=schedule.learning_rate)
         failures = 0
-        choice = CompileChoice(rollout)
+        choice = CompileChoice(getattr(rollout, "compiler", None))
         with frozen(model):
             for step in range(limit):
                 started = time.perf_counter()
@@ -177,7 +177,7 @@ class PolicyOptimizer(PolicySearch):
                         raise
                     # the backward graphs compile at the first backward pass, outside the
                     # rollout's own fallback (e.g. a kernel cache truncated by a killed run)
-                    rollout.stop_compiling(error)
+                    rollout.compiler.stop_compiling(error)
                     optimizer.zero_grad(set_to_none=True)
                     generator.set_state(draws)  # type: ignore[union-attr]
                     total = rollout(self.num_particles, dropout, generator).total_cost
@@ -212,7 +212,8 @@ def _draws_to_replay(
 ) -> torch.Tensor | None:
     """The generator's state before a compiled rollout (None for an eager one, or with
     no generator): a step whose backward fails to compile is replayed eagerly from it."""
-    if generator is None or not getattr(rollout, "compile", False):
+    compiler = getattr(rollout, "compiler", None)
+    if generator is None or compiler is None or not compiler.compile:
         return None
     return generator.get_state()
 

@@ -13,6 +13,7 @@ from torch import nn
 
 from mcpilco.estimators.base import StateEstimator
 from mcpilco.models.base import ModelStructure
+from mcpilco.optim.step_compiler import StepCompiler
 from mcpilco.policies.rbf import SquashedRBFPolicy
 from mcpilco.systems.base import MechanicalSystem
 from mcpilco.systems.sensors import Sensors
@@ -55,12 +56,11 @@ class ParticleRollout:
             ops per step. Compiles a few graphs
             (seconds each, cached on disk by PyTorch) and falls back to eager execution,
             with a warning, where compilation fails (e.g. no C++ compiler on a CPU-only
-            machine). Results agree with eager execution to rounding. Building a compiling
-            rollout clears PyTorch's in-memory compile caches (``torch._dynamo.reset``),
-            so that graphs of earlier runs in the process do not use up its limit.
-            ``"auto"``: compile, and let the policy search time its first steps both ways
-            and keep the faster (:class:`~mcpilco.optim.compile_choice.CompileChoice`);
-            the run is then reproducible only up to rounding.
+            machine). Results agree with eager execution to rounding. ``"auto"``: compile,
+            and let the policy search time its first steps both ways and keep the faster
+            (:class:`~mcpilco.optim.compile_choice.CompileChoice`); the run is then
+            reproducible only up to rounding. Held by :attr:`compiler`
+            (:class:`~mcpilco.optim.step_compiler.StepCompiler`).
         dtype: the particles' dtype (None: the policy's). ``float32`` with a float64 model
             and policy is the mixed setting (``rollout_dtype=float32``): the GP stays fitted
             and factorised in float64, the rollout (features, policy, cross-covariances,
@@ -84,15 +84,7 @@ class ParticleRollout:
         dtype: torch.dtype | None = None,
     ) -> None:
         self.initial_uniform = initial_uniform
-        self.compile = bool(compile)
-        self.choose_compile = compile == "auto"
-        self.eager_chosen = False  # set by a :class:`CompileChoice` that timed eager faster
-        self._compiled: dict[str, Callable[..., Any]] = {}
-        if compile:
-            # PyTorch caps the graphs kept per function (8); graphs of an earlier run in
-            # this process (a sweep's jobs, the bench's settings) would use them up, after
-            # which it silently runs eagerly. Recompiling them is served by its disk cache.
-            torch._dynamo.reset()
+        self.compiler = StepCompiler(compile)
         self.sensors = sensors
         self.model = model
         self.policy = policy
@@ -106,7 +98,6 @@ class ParticleRollout:
         self.horizon = horizon
         self._twin: ModelStructure | None = None
         self._checked_gp: object = None
-        self._graphs_gp: object = None  # the GP the compiled graphs were made for
 
     @classmethod
     def for_system(
@@ -152,7 +143,7 @@ class ParticleRollout:
         per candidate policy of a population, which ``act`` then tells apart; dropout is
         not allowed then). ``act``: the policy's ``prepare(dropout)`` unless given."""
         model = self.stepping_model()  # first: it settles the dtype for this GP
-        self._drop_graphs_of_earlier_fits()
+        self.compiler.forget_graphs_of_earlier_fits(self.model.gp)
         # drawn in the model's dtype and cast: a float32 rollout sees the float64 one's numbers
         like = {"dtype": self.result_dtype, "device": self.initial_mean.device}
         dim = self.initial_mean.shape[0]
@@ -187,13 +178,13 @@ class ParticleRollout:
             bits_now = None if bits is None else bits[t]
             if readings is None:
                 # first step eager: its particles need no gradient (one graph fewer)
-                particles = self._run(
+                particles = self.compiler.run(
                     self._state_step, t >= 1, act, particles, bits_now, noise[t], t
                 )
             else:
                 gaussian, uniform = readings
                 # first two steps eager: no history yet, then one without gradients
-                particles, memory, seen, actions = self._run(
+                particles, memory, seen, actions = self.compiler.run(
                     self._reading_step,
                     t >= 2,
                     act,
@@ -211,23 +202,6 @@ class ParticleRollout:
         trajectory = torch.stack(states).to(self.result_dtype)  # [T+1, M, d_x]
         step_costs = self.cost(trajectory).mean(-1)  # [T+1]
         return RolloutResult(step_costs.sum(), step_costs, trajectory)
-
-    def _drop_graphs_of_earlier_fits(self) -> None:
-        """Clear PyTorch's compile caches once the GP has been refitted.
-
-        Each fit brings GP tensors of a new size, and the graphs compiled for the earlier
-        sizes are of no further use. PyTorch keeps at most 8 graphs per function and then
-        runs it eagerly, silently: with a masked and an unmasked graph per fit, that came
-        at trial 5 of a thesis-settings cart-pole run. Cleared here, each fit's graphs are
-        compiled for its sizes alone (static shapes).
-        """
-        gp = self.model.gp
-        if not self.compile or gp is self._graphs_gp:
-            return
-        if self._graphs_gp is not None:
-            torch._dynamo.reset()
-            self._compiled.clear()
-        self._graphs_gp = gp
 
     def stepping_model(self) -> ModelStructure:
         """The model the particles go through: :attr:`model` itself, or its twin in the
@@ -300,27 +274,6 @@ class ParticleRollout:
         policy_inputs = model.with_tracking_errors(model.policy_inputs(seen), estimate, step)
         actions = act(policy_inputs, bits)
         return model.step(particles, actions, noise), memory, seen, actions
-
-    def _run(self, function: Callable[..., Any], compiled: bool, *args: Any) -> Any:
-        """``function(*args)``, through ``torch.compile`` if the rollout compiles,
-        ``compiled`` holds and gradients are recorded (a gradient-free rollout, e.g. the
-        particle prediction the loggers store, runs once per trial: not worth a graph);
-        a compiler failure switches compilation off with a warning."""
-        if not (self.compile and not self.eager_chosen and compiled and torch.is_grad_enabled()):
-            return function(*args)
-        name = function.__name__
-        if name not in self._compiled:
-            self._compiled[name] = torch.compile(function)
-        try:
-            return self._compiled[name](*args)
-        except Exception as error:  # noqa: BLE001 - any compiler failure: run eagerly
-            self.stop_compiling(error)
-            return function(*args)
-
-    def stop_compiling(self, error: BaseException) -> None:
-        """Run eagerly from now on, with a warning naming the compiler's ``error``."""
-        log.warning("torch.compile of the particle step failed (%s); running eagerly", error)
-        self.compile = False
 
     def initial_states(self, standard_normal: torch.Tensor) -> torch.Tensor:
         """Samples of p(x0) ``[M, d_x]`` from standard-normal draws ``[M, d_x]``."""
