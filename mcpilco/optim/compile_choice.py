@@ -46,18 +46,20 @@ class CompileChoice:
         self.decided = not (
             self.compiler is not None and self.compiler.compile and self.compiler.choose_compile
         )
-        if not self.decided:
+        if self.compiler is not None and not self.decided:
             self.compiler.eager_chosen = False
 
     def before(self, step: int) -> None:
         """Set the rollout up for step ``step`` (0-based, within this trial or stage)."""
         if not self.decided:
+            assert self.compiler is not None  # undecided only with a compiler
             self.compiler.eager_chosen = step >= self.warmup + self.timed
 
     def after(self, step: int, seconds: float) -> None:
         """Record the wall time of step ``step``; choose once both ways are timed."""
         if self.decided or step < self.warmup:
             return
+        assert self.compiler is not None  # undecided only with a compiler
         if not self.compiler.compile:  # the compiler failed meanwhile: eager it is
             self.decided = True
             return
