@@ -8,6 +8,11 @@
 * ``cumulative_cost.png`` / ``.svg``: per configuration, the median and 5–95 percentile band
   of the cumulative evaluation cost (2.17) over the seeds, per trial, with the optimal and
   sub-optimal swing-up costs measured from the sweep's successes (:mod:`analysis.swing_up`);
+* ``solved_by_trial.md`` / ``.csv`` and ``first_success.csv``: per configuration and trial,
+  the runs solved by that trial among those observed through it (runs that stop at their
+  first success and unfinished runs count correctly), per run its first success;
+  ``paired.md``: configurations run on the same seeds, which solved first per seed and the
+  two-sided sign test (:mod:`analysis.first_success`);
 * ``precision.md`` / ``.csv``: Table 2.2 — mean ± std distance from the target over the
   last second of the successful runs at the last trial;
 * ``calibration.md`` / ``.csv`` / ``.png``: per trial, the share of real steps inside the
@@ -26,7 +31,6 @@ A configuration is everything in the resolved config but the seed (named thesis-
 from __future__ import annotations
 
 import argparse
-import math
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
@@ -45,7 +49,14 @@ from analysis.calibration_report import (  # noqa: E402
     timing_table,
     with_recomputed,
 )
+from analysis.first_success import (  # noqa: E402
+    first_successes,
+    paired_markdown,
+    solved_by_trial,
+    solved_markdown,
+)
 from analysis.prediction_errors import prediction_error_figure, prediction_errors  # noqa: E402
+from analysis.stats import wilson_interval  # noqa: E402
 from analysis.swing_up import ReferenceCost, reference_costs  # noqa: E402
 from analysis.thesis import (  # noqa: E402
     PRECISION,
@@ -53,17 +64,6 @@ from analysis.thesis import (  # noqa: E402
     configuration_label,
     thesis_label,
 )
-
-
-def wilson_interval(successes: int, total: int, z: float = 1.959964) -> tuple[float, float]:
-    """Wilson score interval of a binomial proportion (95 % by default)."""
-    if total == 0:
-        return (math.nan, math.nan)
-    p = successes / total
-    denominator = 1 + z * z / total
-    centre = (p + z * z / (2 * total)) / denominator
-    half = z * math.sqrt(p * (1 - p) / total + z * z / (4 * total * total)) / denominator
-    return (max(0.0, centre - half), min(1.0, centre + half))
 
 
 def load_sweep(paths: Iterable[Path]) -> tuple[pd.DataFrame, list[Path]]:
@@ -232,6 +232,22 @@ def write_report(paths: Sequence[Path], out: Path, command: str) -> dict[str, Pa
         rates.to_csv(out / "success_rates.csv", index=False)
         (out / "success_rates.md").write_text(success_markdown(rates))
         sections.append("- [success rates per trial](success_rates.md) ([csv](success_rates.csv))")
+        runs = first_successes(trials)
+        runs.to_csv(out / "first_success.csv", index=False)
+        solved = solved_by_trial(runs)
+        solved.to_csv(out / "solved_by_trial.csv", index=False)
+        (out / "solved_by_trial.md").write_text(solved_markdown(solved))
+        sections.append(
+            "- [solved by each trial](solved_by_trial.md) ([csv](solved_by_trial.csv), per run: "
+            "[first_success.csv](first_success.csv)): runs stopped at their first success or "
+            "unfinished count as far as they were observed"
+        )
+        comparisons = paired_markdown(runs)
+        if comparisons:
+            (out / "paired.md").write_text("# Paired by seed: which solved first\n\n" + comparisons)
+            sections.append(
+                "- [configurations paired by seed](paired.md): which solved first, sign test"
+            )
         references = reference_costs(trials)
     else:
         sections.append("- no success rates: the system reports no success criterion")

@@ -83,18 +83,33 @@ def configuration_label(config: dict[str, Any]) -> str:
     """Thesis-style name of a run's configuration (everything but the seed that matters
     for the published tables): model structure, kernel, dropout, cost length-scales; other
     systems than the cart-pole are named in front, a protocol other than ``paper`` behind
-    (``[quick]``), so that runs of different studies never share a row."""
+    (``[quick]``), and so is a precision other than float64 (``[float32 rollout]``), so that
+    runs of different studies never share a row."""
     system = str(config["system"]["_target_"]).rsplit(".", 1)[-1]
     protocol = (config.get("protocol") or {}).get("name", "paper")
     label = _configuration(config)
     if system not in CART_POLES:
         label = f"{system}: {label}"
-    return label if protocol == "paper" else f"{label} [{protocol}]"
+    label = label if protocol == "paper" else f"{label} [{protocol}]"
+    precision = precision_tag(config)
+    return label if precision is None else f"{label} [{precision}]"
+
+
+def precision_tag(config: dict[str, Any]) -> str | None:
+    """``float32`` (everything in float32) or ``float32 rollout`` (the mixed setting:
+    float64 GP, float32 particles) for a run that is not all float64, else None: runs of
+    another precision are another study (configs from before these keys: float64)."""
+    dtype = config.get("dtype") or "float64"
+    rollout = config.get("rollout_dtype") or dtype
+    if dtype != "float64":
+        return str(dtype)
+    return None if rollout == dtype else f"{rollout} rollout"
 
 
 def thesis_label(label: str) -> str:
-    """The published row a configuration label is compared with: the protocol tag removed
-    (a quick study is shown beside the paper's numbers for the same configuration)."""
+    """The published row a configuration label is compared with: the protocol and precision
+    tags removed (a quick or mixed-precision study is shown beside the paper's numbers for
+    the same configuration)."""
     return label.split(" [", 1)[0]
 
 

@@ -98,6 +98,14 @@ def check_report(sweep_dir: Path, summaries: dict[str, pd.DataFrame]) -> None:
         runs = [t for name, t in summaries.items() if name.startswith(kernel)]
         expected = sum(bool(t.loc[t["trial"] == row.trial, "success"].iloc[0]) for t in runs)
         assert (row.runs, row.successes) == (len(runs), expected)
+    solved = pd.read_csv(sweep_dir / "report" / "solved_by_trial.csv")  # one trial each
+    pd.testing.assert_frame_equal(
+        solved[["configuration", "trial", "observed", "solved"]],
+        rates[["configuration", "trial", "runs", "successes"]].set_axis(
+            ["configuration", "trial", "observed", "solved"], axis=1
+        ),
+    )
+    assert "two-sided sign test" in (sweep_dir / "report" / "paired.md").read_text()
     for name in ("index.md", "success_rates.md", "precision.md", "cumulative_cost.png"):
         assert (sweep_dir / "report" / name).stat().st_size > 0
     # one-step prediction errors of trial 1's model on trial 1's 10 steps, both GP outputs
