@@ -14,7 +14,7 @@ from itertools import combinations
 
 import pandas as pd
 
-from analysis.stats import sign_test, wilson_interval
+from analysis.stats import rate_with_interval, sign_test, wilson_interval
 
 
 def first_successes(trials: pd.DataFrame) -> pd.DataFrame:
@@ -69,7 +69,7 @@ def solved_markdown(table: pd.DataFrame) -> str:
     for row in table.itertuples():
         lines.append(
             f"| {row.configuration} | {row.trial} | {row.solved}/{row.observed} | "
-            f"{100 * row.rate:.0f} % [{100 * row.wilson_low:.0f}–{100 * row.wilson_high:.0f}] |"
+            f"{rate_with_interval(row.rate, row.wilson_low, row.wilson_high)} |"
         )
     return "\n".join(lines) + "\n"
 

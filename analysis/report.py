@@ -56,7 +56,7 @@ from analysis.first_success import (  # noqa: E402
     solved_markdown,
 )
 from analysis.prediction_errors import prediction_error_figure, prediction_errors  # noqa: E402
-from analysis.stats import wilson_interval  # noqa: E402
+from analysis.stats import rate_with_interval, wilson_interval  # noqa: E402
 from analysis.swing_up import ReferenceCost, reference_costs  # noqa: E402
 from analysis.thesis import (  # noqa: E402
     PRECISION,
@@ -126,7 +126,7 @@ def success_markdown(rates: pd.DataFrame) -> str:
         thesis = "—" if pd.isna(row.thesis_rate) else f"{100 * row.thesis_rate:.0f} %"
         lines.append(
             f"| {row.configuration} | {row.trial} | {row.successes}/{row.runs} | "
-            f"{100 * row.rate:.0f} % [{100 * row.wilson_low:.0f}–{100 * row.wilson_high:.0f}] "
+            f"{rate_with_interval(row.rate, row.wilson_low, row.wilson_high)} "
             f"| {thesis} |"
         )
     return "\n".join(lines) + "\n"

@@ -24,3 +24,8 @@ def sign_test(wins: int, losses: int) -> float:
         return 1.0
     tail = sum(math.comb(total, i) for i in range(min(wins, losses) + 1)) / 2**total
     return min(1.0, 2 * tail)
+
+
+def rate_with_interval(rate: float, low: float, high: float) -> str:
+    """``80 % [49–94]``: a rate and its interval in whole per cent, for the tables."""
+    return f"{100 * rate:.0f} % [{100 * low:.0f}–{100 * high:.0f}]"

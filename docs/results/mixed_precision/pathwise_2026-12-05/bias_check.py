@@ -3,18 +3,13 @@
 import sys
 from pathlib import Path
 import torch
-from omegaconf import OmegaConf
-from mcpilco.build import build
-from mcpilco.run_storage import load_tensors
+from common import load
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
 
 torch.set_num_threads(1)
 run = Path(sys.argv[1]); k = int(sys.argv[2]); pol = int(sys.argv[3]); K = int(sys.argv[4])
-cfg = OmegaConf.load(run / "config.yaml"); cfg.compile = False
-c = build(cfg).components
-c.model.load_gp(load_tensors(run / "checkpoints" / f"trial_{k:02d}" / "model.pt"))
-c.policy.load_state_dict(load_tensors(run / "checkpoints" / f"trial_{pol:02d}" / "policy.pt"))
+c = load(run, k, pol)
 args = (c.system, c.model, c.policy, c.cost, c.estimator)
 
 def draws(rollout, seeds):

@@ -3,18 +3,14 @@ to float32 (a 6e-8 relative change), against float64 and mixed, same draws."""
 import sys
 from pathlib import Path
 import torch
-from omegaconf import OmegaConf
-from mcpilco.build import build
-from mcpilco.run_storage import load_tensors
+from common import load
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
 
 torch.set_num_threads(1)
 run = Path(sys.argv[1]); k = int(sys.argv[2]); pol = int(sys.argv[3]); seeds = [int(s) for s in sys.argv[4].split(",")]
-cfg = OmegaConf.load(run / "config.yaml"); cfg.compile = False
-c = build(cfg).components
-c.model.load_gp(load_tensors(run / "checkpoints" / f"trial_{k:02d}" / "model.pt"))
-state = load_tensors(run / "checkpoints" / f"trial_{pol:02d}" / "policy.pt")
+c = load(run, k, pol)
+state = {name: value.clone() for name, value in c.policy.state_dict().items()}
 args = (c.system, c.model, c.policy, c.cost, c.estimator)
 
 def cost_grad(rollout, seed, per_step=False):

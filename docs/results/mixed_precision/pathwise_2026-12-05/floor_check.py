@@ -3,19 +3,14 @@ float32 precision floor (√n ε32 k**) in place of 1e-12, compared with both.""
 import sys
 from pathlib import Path
 import torch
-from omegaconf import OmegaConf
-from mcpilco.build import build
-from mcpilco.run_storage import load_tensors
+from common import load
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
 import mcpilco.gp.prediction as P
 
 torch.set_num_threads(1)
 run = Path(sys.argv[1]); k = int(sys.argv[2]); pol = int(sys.argv[3]); seeds = [int(s) for s in sys.argv[4].split(",")]
-cfg = OmegaConf.load(run / "config.yaml"); cfg.compile = False
-c = build(cfg).components
-c.model.load_gp(load_tensors(run / "checkpoints" / f"trial_{k:02d}" / "model.pt"))
-c.policy.load_state_dict(load_tensors(run / "checkpoints" / f"trial_{pol:02d}" / "policy.pt"))
+c = load(run, k, pol)
 args = (c.system, c.model, c.policy, c.cost, c.estimator)
 stats = {"n": 0, "below32": 0, "below64": 0}
 orig_forward = P._PosteriorSample.forward

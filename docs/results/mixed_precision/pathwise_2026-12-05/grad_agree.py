@@ -4,19 +4,12 @@ trial k (its end); 400 particles, same draws, dropout 0.25, as the tests do."""
 import sys
 from pathlib import Path
 import torch
-from omegaconf import OmegaConf
-from hydra import compose, initialize_config_dir
-from mcpilco.build import build
-from mcpilco.run_storage import load_tensors
+from common import load
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
 
 torch.set_num_threads(1)
 run = Path(sys.argv[1]); trials = [int(t) for t in sys.argv[2].split(",")]
-cfg = OmegaConf.load(run / "config.yaml")
-cfg.compile = False
-built = build(cfg)
-c = built.components
 
 def cost_grad(rollout, seed):
     rollout.policy.zero_grad()
@@ -27,13 +20,9 @@ def cost_grad(rollout, seed):
     return float(r.total_cost.detach()), g.clone()
 
 for k in trials:
-    c.model.load_gp(load_tensors(run / "checkpoints" / f"trial_{k:02d}" / "model.pt"))
-    n = c.model.gp.train_inputs.shape[-2] if hasattr(c.model.gp, "train_inputs") else -1
-    for which in (k - 1, k):
-        if which >= 1:
-            c.policy.load_state_dict(load_tensors(run / "checkpoints" / f"trial_{which:02d}" / "policy.pt"))
-        else:
-            continue
+    for which in (w for w in (k - 1, k) if w >= 1):
+        c = load(run, k, which)
+        n = c.model.gp.train_inputs.shape[-2]
         args = (c.system, c.model, c.policy, c.cost, c.estimator)
         for seed in (5, 6):
             j64, g64 = cost_grad(ParticleRollout.for_system(*args), seed)

@@ -8,25 +8,13 @@ signed (systematic) parts of the mean and std errors."""
 import sys
 from pathlib import Path
 import torch
-from omegaconf import OmegaConf
-from mcpilco.build import build
-from mcpilco.run_storage import load_tensors
-from mcpilco.optim.rollout import ParticleRollout
+from common import load, visited_gp_inputs
 
 torch.set_num_threads(1)
 run = Path(sys.argv[1]); k = int(sys.argv[2]); pol = int(sys.argv[3])
-cfg = OmegaConf.load(run / "config.yaml"); cfg.compile = False
-c = build(cfg).components
-c.model.load_gp(load_tensors(run / "checkpoints" / f"trial_{k:02d}" / "model.pt"))
-c.policy.load_state_dict(load_tensors(run / "checkpoints" / f"trial_{pol:02d}" / "policy.pt"))
+c = load(run, k, pol)
 gp = c.model.gp
-seen = []
-orig = gp.sample
-gp.sample = lambda inputs, noise: (seen.append(inputs.detach().clone()), orig(inputs, noise))[1]
-with torch.no_grad():
-    ParticleRollout.for_system(c.system, c.model, c.policy, c.cost, c.estimator)(400, 0.0, torch.Generator().manual_seed(5))
-gp.sample = orig
-X = torch.cat(seen, 0)
+X = visited_gp_inputs(c)
 
 
 def whitened_mean(cache, cross):

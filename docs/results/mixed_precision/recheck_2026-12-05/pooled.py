@@ -23,11 +23,10 @@ trials, _ = load_sweep([d for d in runs_dirs if d.is_dir()])
 runs = first_successes(trials)
 runs["precision"] = ["mixed" if "float32 rollout" in c else "float64" for c in runs["configuration"]]
 print(f"runs: {len(runs)} (missing: {', '.join(missing) or 'none'})\n")
-counts = {}
+by_precision = solved_by_trial(runs.assign(configuration=runs["precision"])).set_index(["configuration", "trial"])
+counts = {p: [int(by_precision.at[(p, k), "solved"]) for k in (2, 3, 4, 5)] for p in ("float64", "mixed")}
 for precision, group in runs.groupby("precision"):
-    first = group["first_success"]
-    unfinished = group[first.isna() & (group["last_trial"] < 5)]
-    counts[precision] = [int((first <= k).fillna(False).sum()) for k in (2, 3, 4, 5)]
+    unfinished = group[group["first_success"].isna() & (group["last_trial"] < 5)]
     print(f"{precision}: solved by T2/T3/T4/T5 {' / '.join(map(str, counts[precision]))} of "
           f"{len(group)} (unfinished without success: {', '.join(unfinished['run'].map(lambda r: Path(r).name)) or 'none'})")
 print()
