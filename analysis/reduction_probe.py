@@ -18,7 +18,7 @@ import torch
 from omegaconf import OmegaConf
 
 from mcpilco.build import build
-from mcpilco.gp.reduction import reduce_dataset
+from mcpilco.gp.reduction import reduce_dataset, reduction_thresholds
 from mcpilco.kernels import SquaredExponential
 
 
@@ -43,12 +43,14 @@ def main(run: str, trial: str, write: Callable[[str], object] = sys.stdout.write
     gp = model.gp
     assert gp is not None
     threshold = float(cfg.model.reduction_threshold)
+    mode = str(cfg.model.get("reduction_mode", "absolute"))
     inputs = gp.train_inputs
     with torch.no_grad():
         gram = gp.kernel(inputs, inputs)
         noise = gp.noise_variance
-        counts = [greedy_kept(gram[g], float(noise[g]), threshold) for g in range(len(noise))]
-        write(f"N {inputs.shape[0]}, β {threshold}; kept per output alone: {counts}\n")
+        limits = reduction_thresholds(gp, threshold, mode).tolist()
+        counts = [greedy_kept(gram[g], float(noise[g]), limits[g]) for g in range(len(noise))]
+        write(f"N {inputs.shape[0]}, β {threshold} ({mode}); kept per output alone: {counts}\n")
         write(f"noise variance per output: {[f'{v:.3g}' for v in noise.tolist()]}\n")
         worst = max(range(len(counts)), key=counts.__getitem__)
         terms = getattr(gp.kernel, "terms", [gp.kernel])  # a Sum's terms, or the kernel
@@ -61,7 +63,7 @@ def main(run: str, trial: str, write: Callable[[str], object] = sys.stdout.write
                 f"covariance between distinct samples {float(off_diagonal.abs().max()):.3g}, "
                 f"smallest log length-scales {[round(v, 1) for v in lengthscales]}\n"
             )
-        write(f"reduce_dataset keeps {len(reduce_dataset(gp, threshold))}\n")
+        write(f"reduce_dataset keeps {len(reduce_dataset(gp, threshold, mode))}\n")
 
 
 if __name__ == "__main__":

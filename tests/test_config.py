@@ -190,6 +190,8 @@ def test_unknown_option_lists_the_choices() -> None:
         ("system.measurement_noise_std=0", "system.measurement_noise_std"),
         ("system.measurement_noise_std=-1e-3", "system.measurement_noise_std"),
         ("model.gp.noise_std=-1", "gp.noise_std"),
+        ("model.reduction_mode=relativ", "model.reduction_mode"),
+        ("model.reduction_threshold=0", "model.reduction_threshold"),
         ("policy.num_basis=0", "policy.num_basis"),
         ("dtype=float16", "dtype"),
         ("num_trials=0", "num_trials"),

@@ -106,6 +106,60 @@ def test_reduction_keeps_exactly_the_uncertain_samples() -> None:
     assert gp.train_inputs.shape[0] == len(kept) < len(x)
 
 
+def numpy_greedy(x: np.ndarray, noise: np.ndarray, std_limits: np.ndarray) -> list[int]:
+    """The greedy rule recomputed from scratch with numpy: keep sample i when any output's
+    latent posterior std, given the samples kept so far, exceeds that output's limit."""
+    lengthscale = np.array([0.7, 1.3, 2.0])
+    kept = [0]
+    for i in range(1, len(x)):
+        subset = x[kept]
+        gram = numpy_se(subset, subset, lengthscale, 1.5)
+        cross = numpy_se(subset, x[i : i + 1], lengthscale, 1.5)[:, 0]
+        for g in range(len(noise)):
+            latent = 1.5 - cross @ np.linalg.solve(gram + noise[g] * np.eye(len(kept)), cross)
+            if latent > std_limits[g] ** 2:
+                kept.append(i)
+                break
+    return kept
+
+
+def test_relative_reduction_uses_each_outputs_noise_std() -> None:
+    """``mode="relative"`` (the reference code's SoD): output g keeps a sample when its latent
+    std exceeds β σ_n[g]; the set differs from an absolute β at either output's σ_n."""
+    beta, noise_std = 5.0, np.array([0.1, 0.5])  # limits 0.5 and 2.5 (above the prior std 1.22)
+    x = make_gp()[1]
+    kept = {}
+    for mode, threshold in [("relative", beta), ("absolute", beta * 0.1), ("absolute", beta * 0.5)]:
+        gp = make_gp()[0]
+        with torch.no_grad():
+            gp.raw_noise.copy_(torch.as_tensor(np.log(noise_std**2 - gp.noise_variance_min)))
+        kept[mode, threshold] = reduce_dataset(gp, threshold, mode).tolist()
+        assert gp.train_inputs.shape[0] == len(kept[mode, threshold])
+    assert kept["relative", beta] == numpy_greedy(x, noise_std**2, beta * noise_std)
+    assert kept["absolute", beta * 0.1] == numpy_greedy(x, noise_std**2, np.full(2, beta * 0.1))
+    # absolute 0.5: output 1 (the larger noise leaves it the larger latent std) keeps every
+    # sample; relative gives output 1 a limit above its prior std, so output 0 alone decides
+    assert len(kept["relative", beta]) < len(kept["absolute", beta * 0.1]) == 25
+    assert kept["absolute", beta * 0.5] == [0]
+
+
+@pytest.mark.parametrize(
+    ("threshold", "mode", "message"),
+    [
+        (0.5, "rel", "model.reduction_mode must be one of ['absolute', 'relative'], got 'rel'"),
+        (-1.0, "absolute", "model.reduction_threshold must be > 0 or null, got -1.0"),
+        ("0.5", "relative", "model.reduction_threshold must be > 0 or null, got '0.5'"),
+    ],
+)
+def test_reduction_settings_are_checked(threshold: object, mode: str, message: str) -> None:
+    from mcpilco.errors import ConfigError
+    from mcpilco.gp.reduction import check_reduction
+
+    with pytest.raises(ConfigError) as error:
+        check_reduction(threshold, mode)  # type: ignore[arg-type]
+    assert str(error.value) == message
+
+
 @pytest.mark.parametrize(("std_over_threshold", "expected"), [(1.2, 25), (0.8, 1)])
 def test_a_white_noise_like_se_term_above_threshold_keeps_every_sample(
     std_over_threshold: float, expected: int

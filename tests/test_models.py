@@ -81,6 +81,43 @@ def test_fit_then_step_learns_a_linear_system(generator: torch.Generator) -> Non
     assert float((predicted - torch.as_tensor(states[0][6:7])).abs().max()) < 1e-3
 
 
+def test_relative_reduction_leaves_every_dropped_sample_predicted_within_its_limit() -> None:
+    """Reference-code SoD (``reduction_mode=relative``, β = 0.5): every sample the fit drops
+    is predicted by the kept ones with latent std ≤ β σ_n of each output (adding samples only
+    lowers a posterior variance), and a pendulum swinging through the same states keeps few."""
+    model = SpeedIntegration(
+        system=CartPole(),
+        kernel=SquaredExponential,
+        gp=ExactGP,
+        fit=MarginalLikelihoodFit(max_iterations=30),
+        reduction_threshold=0.5,
+        reduction_mode="relative",
+    )
+    dt, rng = model.system.dt, np.random.default_rng(1)
+    states, actions = [], []
+    for _ in range(3):  # the same small-amplitude motion three times over: redundant data
+        x = np.zeros((41, 4))
+        x[0] = [0.1, 0.0, 0.2, 0.0] + 1e-3 * rng.normal(size=4)
+        u = np.zeros((40, 1))
+        for t in range(40):
+            a = np.array([-x[t, 0], -np.sin(x[t, 2])])
+            x[t + 1, [1, 3]] = x[t, [1, 3]] + dt * a
+            x[t + 1, [0, 2]] = x[t, [0, 2]] + dt * x[t, [1, 3]] + 0.5 * dt**2 * a
+        states.append(x)
+        actions.append(u)
+    report = model.fit(states, actions)
+    assert report.num_samples == 120 and report.num_kept < 60, report
+    inputs, _ = model.dataset(states, actions)
+    gp = model.gp
+    assert gp is not None
+    kept = (inputs[:, None, :] == gp.train_inputs[None, :, :]).all(-1).any(-1)  # [N]
+    with torch.no_grad():
+        _, variance = gp.predict(inputs[~kept])  # [G, N_dropped] latent, from the kept samples
+        limit = (0.5 * gp.noise_variance.sqrt())[:, None] ** 2
+    assert int(kept.sum()) == report.num_kept
+    assert bool((variance <= limit * (1 + 1e-9)).all())
+
+
 def test_angle_feature_gradient(generator: torch.Generator) -> None:
     features = AngleFeatures(4, [2]).to(torch.float64)
     x = torch.randn(6, 4, generator=generator, dtype=torch.float64, requires_grad=True)

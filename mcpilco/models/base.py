@@ -16,7 +16,7 @@ from mcpilco.errors import ConfigError
 from mcpilco.estimators.base import StateEstimator
 from mcpilco.gp.exact import ExactGP
 from mcpilco.gp.fit import MarginalLikelihoodFit
-from mcpilco.gp.reduction import reduce_dataset
+from mcpilco.gp.reduction import check_reduction, reduce_dataset
 from mcpilco.kernels.base import KernelFactory, KernelShape
 from mcpilco.models.features import AngleFeatures
 from mcpilco.systems.base import MechanicalSystem
@@ -48,6 +48,8 @@ class ModelStructure(nn.Module, ABC):
         gp: GP factory, ``gp(kernel=..., output_names=...)``.
         fit: hyper-parameter training.
         reduction_threshold: β of §2.3.3; None disables reduction.
+        reduction_mode: ``absolute`` (β in target units) or ``relative`` (β in units of each
+            output's trained noise std, the reference code's SoD mode).
     """
 
     def __init__(
@@ -57,15 +59,16 @@ class ModelStructure(nn.Module, ABC):
         gp: GPFactory,
         fit: MarginalLikelihoodFit,
         reduction_threshold: float | None = None,
+        reduction_mode: str = "absolute",
     ) -> None:
         super().__init__()
-        if reduction_threshold is not None and reduction_threshold <= 0:
-            raise ConfigError(f"model.reduction_threshold must be > 0, got {reduction_threshold}")
+        check_reduction(reduction_threshold, reduction_mode)
         self.system = system
         self.kernel_factory = kernel
         self.gp_factory = gp
         self.fitter = fit
         self.reduction_threshold = reduction_threshold
+        self.reduction_mode = reduction_mode
         self.features = AngleFeatures(system.state_dim, system.angle_indices)
         self.gp: ExactGP | None = None
         # Follows .to(dtype/device) of the module; tells where new tensors go.
@@ -233,7 +236,7 @@ class ModelStructure(nn.Module, ABC):
         self.gp.set_data(inputs, targets)
         nll = self.fitter(self.gp)
         if self.reduction_threshold is not None:
-            reduce_dataset(self.gp, self.reduction_threshold)
+            reduce_dataset(self.gp, self.reduction_threshold, self.reduction_mode)
         return FitReport(
             num_samples=int(inputs.shape[0]),
             num_kept=int(self.gp.train_inputs.shape[0]),

@@ -39,9 +39,12 @@ class SpeedIntegration(ModelStructure):
         gp: Callable[..., object],
         fit: MarginalLikelihoodFit,
         reduction_threshold: float | None = None,
+        reduction_mode: str = "absolute",
         known_coordinates: bool = False,
     ) -> None:
-        super().__init__(system, kernel, gp, fit, reduction_threshold)  # type: ignore[arg-type]
+        super().__init__(  # type: ignore[arg-type]
+            system, kernel, gp, fit, reduction_threshold, reduction_mode
+        )
         dt, dim = system.dt, system.state_dim
         known = tuple(system.known_coordinates) if known_coordinates else ()
         if known_coordinates and not known:
