@@ -83,16 +83,17 @@ def configuration_label(config: dict[str, Any]) -> str:
     """Thesis-style name of a run's configuration (everything but the seed that matters
     for the published tables): model structure, kernel, dropout, cost length-scales; other
     systems than the cart-pole are named in front, a protocol other than ``paper`` behind
-    (``[quick]``), and so is a precision other than float64 (``[float32 rollout]``), so that
-    runs of different studies never share a row."""
+    (``[quick]``), and so are a precision other than float64 (``[float32 rollout]``) and a GP
+    reduction (``[reduction 0.5σ_n]``), so that runs of different studies never share a row."""
     system = str(config["system"]["_target_"]).rsplit(".", 1)[-1]
     protocol = (config.get("protocol") or {}).get("name", "paper")
     label = _configuration(config)
     if system not in CART_POLES:
         label = f"{system}: {label}"
     label = label if protocol == "paper" else f"{label} [{protocol}]"
-    precision = precision_tag(config)
-    return label if precision is None else f"{label} [{precision}]"
+    for tag in (precision_tag(config), reduction_tag(config)):
+        label = label if tag is None else f"{label} [{tag}]"
+    return label
 
 
 def precision_tag(config: dict[str, Any]) -> str | None:
@@ -104,6 +105,21 @@ def precision_tag(config: dict[str, Any]) -> str | None:
     if dtype != "float64":
         return str(dtype)
     return None if rollout == dtype else f"{rollout} rollout"
+
+
+def reduction_tag(config: dict[str, Any]) -> str | None:
+    """``reduction 0.5σ_n`` for a GP reduction relative to the noise std (the reference
+    code's SoD, in no thesis table), ``reduction β=0.001`` for an absolute one on a cart-pole
+    (the thesis reduces there nowhere), else None: the absolute β of the other systems'
+    presets is the thesis's own setting (§2.3.3) and names no separate study."""
+    model = config.get("model") or {}
+    threshold = model.get("reduction_threshold")
+    if threshold is None:
+        return None
+    if model.get("reduction_mode", "absolute") == "relative":
+        return f"reduction {_number(threshold)}σ_n"
+    system = str(config["system"]["_target_"]).rsplit(".", 1)[-1]
+    return f"reduction β={_number(threshold)}" if system in CART_POLES else None
 
 
 def thesis_label(label: str) -> str:

@@ -104,12 +104,23 @@ def test_paired_uses_the_seeds_both_configurations_ran() -> None:
     assert "A earlier on 1, B earlier on 1" in text and "p = 1" in text
 
 
-def test_a_precision_other_than_float64_is_its_own_configuration() -> None:
+def test_a_precision_or_reduction_of_its_own_is_its_own_configuration() -> None:
     from hydra import compose, initialize_config_dir
     from omegaconf import OmegaConf
 
     labels = {}
-    for overrides in ([], ["rollout_dtype=float32"], ["dtype=float32"], ["protocol=quick"]):
+    relative = ["model.reduction_threshold=0.5", "model.reduction_mode=relative"]
+    for overrides in (
+        [],
+        ["rollout_dtype=float32"],
+        ["dtype=float32"],
+        ["protocol=quick"],
+        relative,
+        ["model.reduction_threshold=1e-3"],
+        ["rollout_dtype=float32", *relative],
+        ["+experiment=furuta_pms"],
+        ["+experiment=furuta_pms", *relative],
+    ):
         with initialize_config_dir(version_base="1.3", config_dir=str(ROOT / "conf")):
             config = OmegaConf.to_container(compose("train", overrides=overrides), resolve=True)
         assert isinstance(config, dict)
@@ -117,6 +128,14 @@ def test_a_precision_other_than_float64_is_its_own_configuration() -> None:
     plain = labels[()]
     assert labels[("rollout_dtype=float32",)] == f"{plain} [float32 rollout]"
     assert labels[("dtype=float32",)] == f"{plain} [float32]"
-    assert {thesis_label(label) for label in labels.values()} == {plain}
+    assert labels[tuple(relative)] == f"{plain} [reduction 0.5σ_n]"
+    assert labels[("model.reduction_threshold=1e-3",)] == f"{plain} [reduction β=0.001]"
+    assert labels[("rollout_dtype=float32", *relative)] == (
+        f"{plain} [float32 rollout] [reduction 0.5σ_n]"
+    )
+    furuta = labels[("+experiment=furuta_pms",)]  # its preset's β = 1e-3 is the thesis's
+    assert furuta == "FurutaPendulum: PMS S.I., SE, dropout, l=()"
+    assert labels[("+experiment=furuta_pms", *relative)] == f"{furuta} [reduction 0.5σ_n]"
+    assert {thesis_label(label) for label in labels.values()} == {plain, furuta}
     assert precision_tag({}) is None  # configs from before the keys existed: float64
     assert precision_tag({"dtype": "float64", "rollout_dtype": "float64"}) is None
