@@ -79,13 +79,17 @@ CART_POLES = {"CartPole", "CartPoleMujoco"}
 """Systems the published numbers are about (the thesis's cart-pole, either backend)."""
 
 
+def _system_name(config: dict[str, Any]) -> str:
+    return str(config["system"]["_target_"]).rsplit(".", 1)[-1]
+
+
 def configuration_label(config: dict[str, Any]) -> str:
     """Thesis-style name of a run's configuration (everything but the seed that matters
     for the published tables): model structure, kernel, dropout, cost length-scales; other
     systems than the cart-pole are named in front, a protocol other than ``paper`` behind
     (``[quick]``), and so are a precision other than float64 (``[float32 rollout]``) and a GP
     reduction (``[reduction 0.5σ_n]``), so that runs of different studies never share a row."""
-    system = str(config["system"]["_target_"]).rsplit(".", 1)[-1]
+    system = _system_name(config)
     protocol = (config.get("protocol") or {}).get("name", "paper")
     label = _configuration(config)
     if system not in CART_POLES:
@@ -118,8 +122,7 @@ def reduction_tag(config: dict[str, Any]) -> str | None:
         return None
     if model.get("reduction_mode", "absolute") == "relative":
         return f"reduction {_number(threshold)}σ_n"
-    system = str(config["system"]["_target_"]).rsplit(".", 1)[-1]
-    return f"reduction β={_number(threshold)}" if system in CART_POLES else None
+    return f"reduction β={_number(threshold)}" if _system_name(config) in CART_POLES else None
 
 
 def thesis_label(label: str) -> str:

@@ -39,8 +39,8 @@ def reduce_dataset(gp: ExactGP, threshold: float, mode: str = "absolute") -> tor
 
     Samples are visited in order, starting from the first, and the predictor is updated
     each time one is kept (incremental Cholesky). Outputs share one input set, so a sample
-    is kept when *any* output's latent std exceeds that output's threshold (the reference
-    code keeps one subset per output; the shared set is their union's superset).
+    is kept when *any* output's latent std, given the shared kept set, exceeds that output's
+    threshold (the reference code keeps one subset per output).
 
     Args:
         gp: a fitted GP; its data are replaced by the kept subset (and re-factorised).
