@@ -11,6 +11,7 @@ import torch
 from torch import nn
 
 from mcpilco.errors import ConfigError
+from mcpilco.gp.forward_gradient import extended_solve_matrix, first_order_sample
 from mcpilco.gp.linalg import cholesky_with_jitter
 from mcpilco.gp.prediction import (
     VARIANCE_FLOOR,
@@ -22,6 +23,7 @@ from mcpilco.gp.prediction import (
     whitened_posterior_sample,
 )
 from mcpilco.kernels.base import Kernel, PreparedKernel
+from mcpilco.kernels.first_order import FirstOrderCross, RowFinish
 
 WHITENED_DTYPES = (torch.float32, torch.float16, torch.bfloat16)
 """Predictions in these dtypes use the whitened form (see :mod:`mcpilco.gp.prediction`)."""
@@ -35,6 +37,11 @@ class _PredictionCache:
 
     kernel: PreparedKernel  # x* [M, D] -> (k(x*, X) [G, M, N], k(x*, x*) [G, M])
     solve: torch.Tensor | None = None
+    # inverse form with a kernel that forms its own derivatives (samples through
+    # mcpilco.gp.forward_gradient): the prepared kernel, [Γ⁻¹ | α | columns], finish
+    first_order: FirstOrderCross | None = None
+    extended: torch.Tensor | None = None
+    finish: RowFinish | None = None
     # L and Lᵀ, each stored contiguous: MKL's float32 solve is faster with the operand
     # contiguous than with a transposed view (forward, Lᵀ: 1.15 vs 1.22 ms; backward, L:
     # 1.17 vs 1.21 ms at N = 300, M = 400, one thread), so both are kept
@@ -57,6 +64,9 @@ class _PredictionCache:
 
     def sample(self, inputs: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
         """Reparameterised posterior sample ``[G, M]`` at ``inputs [M, D]``."""
+        if self.first_order is not None and torch.is_grad_enabled() and inputs.requires_grad:
+            assert self.extended is not None and self.finish is not None
+            return first_order_sample(inputs, self.first_order, self.extended, self.finish, noise)
         cross, prior_variance = self.kernel(inputs)
         if self.solve is not None:
             return posterior_sample(cross, prior_variance, self.solve, noise)
@@ -163,7 +173,18 @@ class ExactGP(nn.Module):
             )
         inverse_gram = torch.cholesky_inverse(factor)
         alpha = torch.matmul(inverse_gram, targets).squeeze(-1)
-        return _PredictionCache(prepared, solve=solve_matrix(inverse_gram, alpha).to(dtype))
+        solve = solve_matrix(inverse_gram, alpha).to(dtype)
+        first_order = kernel.prepare_first_order(self.train_inputs.to(dtype))
+        if first_order is None:
+            return _PredictionCache(prepared, solve=solve)
+        contraction = first_order.row_contraction(alpha.to(dtype))
+        return _PredictionCache(
+            prepared,
+            solve=solve,
+            first_order=first_order,
+            extended=extended_solve_matrix(solve, contraction.columns),
+            finish=contraction.finish,
+        )
 
     def posterior_weights(self) -> tuple[torch.Tensor, torch.Tensor]:
         """Γ⁻¹ ``[G, N, N]`` and α = Γ⁻¹ y ``[G, N]`` of the fitted GP (no gradient)."""

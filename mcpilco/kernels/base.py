@@ -17,6 +17,7 @@ import torch
 from torch import nn
 
 from mcpilco.errors import ConfigError
+from mcpilco.kernels.first_order import FirstOrderCross
 
 BasisFunction = Callable[[torch.Tensor], torch.Tensor]
 """Maps GP inputs ``[N, D]`` to per-output features ``[G, N, P]``."""
@@ -93,6 +94,13 @@ class Kernel(nn.Module, ABC):
         symmetric; column-major, see :data:`PreparedKernel`); kernels override it where
         it pays."""
         return lambda x1: (self(x2, x1).mT, self.diag(x1))
+
+    def prepare_first_order(self, x2: torch.Tensor) -> FirstOrderCross | None:
+        """The cross-covariance at fixed training inputs ``x2`` with its first derivatives
+        formed in the forward pass (:mod:`mcpilco.kernels.first_order`), or None where
+        the kernel does not offer it (the default: predictions then go through
+        autograd). Call under ``torch.no_grad()``: the result holds constants."""
+        return None
 
     def _log_parameter(self, name: str, value: float | Sequence[float], size: int) -> nn.Parameter:
         """A ``[G, size]`` parameter holding log(value), after checking value > 0."""

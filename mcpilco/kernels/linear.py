@@ -8,6 +8,7 @@ import torch
 
 from mcpilco.errors import ConfigError
 from mcpilco.kernels.base import Kernel, KernelShape, check_dims, select_dims
+from mcpilco.kernels.first_order import FirstOrderCross, LinearInFeatures
 
 
 class Linear(Kernel):
@@ -63,6 +64,15 @@ class Linear(Kernel):
         z1 = select_dims(x1, self.active_dims)
         z2 = select_dims(x2, self.active_dims)
         return torch.matmul(z1 * self.weights()[:, None, :], z2.transpose(-1, -2))
+
+    def prepare_first_order(self, x2: torch.Tensor) -> FirstOrderCross:
+        outputs, dims = self.shape.num_outputs, self.active_dims
+
+        def columns(x: torch.Tensor) -> torch.Tensor:  # [M, D] -> [G, M, D_S]
+            return select_dims(x, dims).expand(outputs, -1, -1)
+
+        weight = self.weights().detach()[:, None, :]  # [G, 1, D_S] (or [G, 1, 1])
+        return LinearInFeatures(columns, columns(x2).detach(), weight)
 
     def diag(self, x: torch.Tensor) -> torch.Tensor:
         z = select_dims(x, self.active_dims)

@@ -8,6 +8,7 @@ import torch
 
 from mcpilco.errors import ConfigError
 from mcpilco.kernels.base import Kernel, KernelShape, PreparedKernel, cross_product
+from mcpilco.kernels.first_order import FirstOrderCross, LinearInFeatures
 
 
 class PhysicalBasis(Kernel):
@@ -51,6 +52,10 @@ class PhysicalBasis(Kernel):
             return cross_product(weighted, phi), (phi.square() * weight).sum(-1)
 
         return cross
+
+    def prepare_first_order(self, x2: torch.Tensor) -> FirstOrderCross:
+        weight = torch.exp(self.log_weight).detach()[:, None, :]  # [G, 1, P]
+        return LinearInFeatures(self.basis, self.basis(x2).detach(), weight)
 
     def diag(self, x: torch.Tensor) -> torch.Tensor:
         phi = self.basis(x)

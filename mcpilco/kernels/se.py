@@ -18,6 +18,7 @@ from mcpilco.kernels.base import (
     select_dims,
     squared_distances,
 )
+from mcpilco.kernels.first_order import FirstOrderCross, RowContraction
 
 
 class _PreparedCross(torch.autograd.Function):
@@ -118,5 +119,67 @@ class SquaredExponential(Kernel):
 
         return cross
 
+    def prepare_first_order(self, x2: torch.Tensor) -> FirstOrderCross:
+        inverse_lengthscale = torch.exp(-self.log_lengthscale).detach()[:, None, :]  # [G, 1, D]
+        z2 = select_dims(x2, self.active_dims) * inverse_lengthscale  # [G, N, D]
+        return _FirstOrderSE(inverse_lengthscale, z2, self.log_variance.detach(), self.active_dims)
+
     def diag(self, x: torch.Tensor) -> torch.Tensor:
         return torch.exp(self.log_variance)[:, None].expand(-1, x.shape[-2])
+
+
+class _FirstOrderSE(FirstOrderCross):
+    """SE cross-covariance on features f = x* ⊙ ι (ι: inverse length-scales): k_ij =
+    exp(2 f_i·z2_j − |f_i|² − offset_j), so ∂k_ij/∂f_i = k_ij (2 z2_j − 2 f_i) and any
+    contraction Σ_j w_ij ∂k_ij/∂f_i is Σ_j (w ⊙ k)_ij 2 z2_j − 2 f_i Σ_j (w ⊙ k)_ij: one
+    product of w ⊙ k with the training side ``[2 z2 | −1]``, whose last column gives
+    Σ_j w_ij k_ij too."""
+
+    def __init__(
+        self,
+        inverse_lengthscale: torch.Tensor,
+        z2: torch.Tensor,
+        log_variance: torch.Tensor,
+        active_dims: tuple[int, ...] | None,
+    ) -> None:
+        offset = z2.square().sum(-1, keepdim=True) - log_variance[:, None, None]  # [G, N, 1]
+        self.inverse_lengthscale = inverse_lengthscale  # [G, 1, D]
+        self.training = torch.cat([2.0 * z2, -torch.ones_like(offset), -offset], -1)
+        self.variance = torch.exp(log_variance)[:, None]  # [G, 1]
+        self.active_dims = active_dims
+
+    @property
+    def num_features(self) -> int:
+        return self.inverse_lengthscale.shape[-1]
+
+    def features(self, x1: torch.Tensor) -> torch.Tensor:
+        return select_dims(x1, self.active_dims) * self.inverse_lengthscale
+
+    def covariance(self, features: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        augmented = torch.cat(
+            [features, features.square().sum(-1, keepdim=True), torch.ones_like(features[..., :1])],
+            -1,
+        )
+        covariance_t = torch.matmul(self.training, augmented.mT).exp_()  # [G, N, M]
+        return covariance_t, covariance_t
+
+    def prior_variance(self, features: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        prior = self.variance.expand(-1, features.shape[-2])
+        return prior, torch.zeros_like(features)
+
+    def contract(
+        self, features: torch.Tensor, state: torch.Tensor, weights_t: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        dim = self.num_features
+        sums = torch.matmul(self.training[..., : dim + 1].mT, weights_t * state)  # [G, D+1, M]
+        total = -sums[..., dim, :]
+        return sums[..., :dim, :].mT - 2.0 * features * total.unsqueeze(-1), total
+
+    def row_contraction(self, row_weights: torch.Tensor) -> RowContraction:
+        # [2 z2 | −1]: k*·columns gives Σ_j a_j k_ij 2 z2_j and −Σ_j a_j k_ij of this kernel
+        columns = row_weights.unsqueeze(-1) * self.training[..., : self.num_features + 1]
+
+        def finish(features: torch.Tensor, state: Any, folded: torch.Tensor) -> torch.Tensor:
+            return folded[..., :-1] + 2.0 * features * folded[..., -1:]
+
+        return RowContraction(columns, finish)
