@@ -63,7 +63,10 @@ class _PredictionCache:
         return mean, torch.maximum(prior_variance - quadratic, floor)
 
     def sample(self, inputs: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
-        """Reparameterised posterior sample ``[G, M]`` at ``inputs [M, D]``."""
+        """Reparameterised posterior sample ``[G, M]`` at ``inputs [M, D]``: through the
+        first-order form (:mod:`mcpilco.gp.forward_gradient`) when the kernel offers it and
+        a gradient is being taken, else through :func:`posterior_sample` (no gradient, or
+        a kernel without it) or the whitened form (float32)."""
         if self.first_order is not None and torch.is_grad_enabled() and inputs.requires_grad:
             assert self.extended is not None and self.finish is not None
             return first_order_sample(inputs, self.first_order, self.extended, self.finish, noise)
@@ -178,11 +181,12 @@ class ExactGP(nn.Module):
         if first_order is None:
             return _PredictionCache(prepared, solve=solve)
         contraction = first_order.row_contraction(alpha.to(dtype))
-        return _PredictionCache(
+        extended = extended_solve_matrix(solve, contraction.columns)
+        return _PredictionCache(  # solve as a view of extended: Γ⁻¹ is stored once
             prepared,
-            solve=solve,
+            solve=extended[..., : solve.shape[-1]],
             first_order=first_order,
-            extended=extended_solve_matrix(solve, contraction.columns),
+            extended=extended,
             finish=contraction.finish,
         )
 
