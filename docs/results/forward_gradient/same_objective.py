@@ -1,0 +1,53 @@
+"""Same GP, policy and draws: Ĵ and the policy gradient of a whole rollout through the
+first-order sample (the default) against the plain form (prepare_first_order switched off),
+eager and compiled, on a cart-pole SE GP of N exploration points.
+
+    PYTHONPATH=. python docs/results/forward_gradient/same_objective.py 180
+"""
+
+import sys
+
+import torch
+from hydra import compose, initialize_config_dir
+
+from mcpilco.build import build
+from mcpilco.kernels import SquaredExponential
+from mcpilco.optim.policy_optimizer import frozen
+from mcpilco.optim.rollout import ParticleRollout
+from runners.bench import CARTPOLE, CONFIG_DIR, exploration_data
+
+torch.set_num_threads(1)
+n = int(sys.argv[1])
+with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
+    cfg = compose("train", overrides=["dtype=float64", "rollout_dtype=null", *CARTPOLE])
+experiment = build(cfg)
+c = experiment.components
+states, actions = exploration_data(experiment, n)
+c.model.fit(states, actions)
+first_order = SquaredExponential.prepare_first_order
+
+
+def objective(use_first_order: bool, compile: bool) -> tuple[float, torch.Tensor]:
+    SquaredExponential.prepare_first_order = (  # type: ignore[method-assign]
+        first_order if use_first_order else (lambda self, x2: None)
+    )
+    c.model.gp.precompute()  # rebuild the prediction cache with or without the form
+    rollout = ParticleRollout.for_system(
+        c.system, c.model, c.policy, c.cost, c.estimator, compile=compile, dtype=None
+    )
+    c.policy.zero_grad(set_to_none=True)
+    with frozen(c.model):
+        cost = rollout(400, 0.25, torch.Generator().manual_seed(7)).total_cost
+        cost.backward()
+    gradient = torch.cat([p.grad.flatten() for p in c.policy.parameters()])
+    return float(cost.detach()), gradient
+
+
+for compile in (False, True):
+    cost_new, grad_new = objective(True, compile)
+    cost_old, grad_old = objective(False, compile)
+    print(
+        f"n={n} compile={compile}: Ĵ {cost_new:.12g} vs {cost_old:.12g} "
+        f"(rel {abs(cost_new - cost_old) / abs(cost_old):.1e}); gradient rel "
+        f"{float((grad_new - grad_old).norm() / grad_old.norm()):.1e}"
+    )
