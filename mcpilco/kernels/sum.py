@@ -75,9 +75,9 @@ class _FirstOrderSum(FirstOrderCross):
 
     def covariance(self, features: torch.Tensor) -> tuple[torch.Tensor, list[Any]]:
         pieces = [part.covariance(f) for part, f in self._terms(features)]
-        total = pieces[0][0].clone()
+        total = pieces[0][0]  # out of place below: a term's state may be its covariance
         for covariance_t, _ in pieces[1:]:
-            total += covariance_t
+            total = total + covariance_t
         return total, [state for _, state in pieces]
 
     def prior_variance(self, features: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
