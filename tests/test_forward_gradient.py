@@ -9,6 +9,7 @@ from collections.abc import Callable
 import pytest
 import torch
 
+from mcpilco.errors import ConfigError
 from mcpilco.gp import ExactGP
 from mcpilco.kernels import (
     Kernel,
@@ -150,3 +151,23 @@ def test_the_backward_pass_keeps_no_training_set_sized_tensor(generator: torch.G
     one_tensor = 2 * n * m * 8  # bytes of one [G, N, M] float64 tensor
     assert saved_bytes(lambda: first_order.sample(x, noise)) < one_tensor / 20
     assert saved_bytes(lambda: plain.sample(x, noise)) >= 2 * one_tensor
+
+
+def test_forward_gradient_can_be_switched_off_and_is_checked(generator: torch.Generator) -> None:
+    """``gp.forward_gradient=false`` samples through autograd: the same values and gradient."""
+    x = torch.randn(20, 3, generator=generator, dtype=torch.float64)
+    noise = torch.randn(2, 20, generator=generator, dtype=torch.float64)
+    results = []
+    for flag in (True, False):
+        gp = make_gp(KERNELS["sp"](), torch.Generator().manual_seed(5))
+        gp.forward_gradient = flag
+        gp.requires_grad_(False)
+        assert (gp._prediction_cache(torch.float64).first_order is not None) == flag
+        inputs = x.clone().requires_grad_(True)
+        value = gp.sample(inputs, noise)
+        value.sum().backward()
+        results.append((value.detach(), inputs.grad))
+    torch.testing.assert_close(results[0][0], results[1][0], rtol=1e-10, atol=1e-12)
+    torch.testing.assert_close(results[0][1], results[1][1], rtol=1e-8, atol=1e-10)
+    with pytest.raises(ConfigError, match=r"gp.forward_gradient must be true or false, got 'yes'"):
+        ExactGP(KERNELS["se"](), forward_gradient="yes")  # type: ignore[arg-type]

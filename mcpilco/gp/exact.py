@@ -88,6 +88,10 @@ class ExactGP(nn.Module):
         noise_std: initial observation-noise std σ (one value or one per output).
         noise_std_min: lower bound on σ (keeps Γ well conditioned).
         output_names: a name per output, for messages.
+        forward_gradient: samples taken with a gradient (particle rollouts) form it in the
+            forward pass where the kernel offers that (:mod:`mcpilco.gp.forward_gradient`;
+            float64 inverse form); False: always through autograd. Same numbers to
+            rounding.
     """
 
     def __init__(
@@ -96,9 +100,15 @@ class ExactGP(nn.Module):
         noise_std: float | Sequence[float] = 0.1,
         noise_std_min: float = 1e-4,
         output_names: Sequence[str] | None = None,
+        forward_gradient: bool = True,
     ) -> None:
         super().__init__()
         self.kernel = kernel
+        if not isinstance(forward_gradient, bool):
+            raise ConfigError(
+                f"gp.forward_gradient must be true or false, got {forward_gradient!r}"
+            )
+        self.forward_gradient = forward_gradient
         outputs = kernel.shape.num_outputs
         initial = torch.as_tensor(noise_std, dtype=torch.float64).flatten()
         if initial.numel() not in (1, outputs) or torch.any(initial <= noise_std_min):
@@ -177,7 +187,11 @@ class ExactGP(nn.Module):
         inverse_gram = torch.cholesky_inverse(factor)
         alpha = torch.matmul(inverse_gram, targets).squeeze(-1)
         solve = solve_matrix(inverse_gram, alpha).to(dtype)
-        first_order = kernel.prepare_first_order(self.train_inputs.to(dtype))
+        first_order = (
+            kernel.prepare_first_order(self.train_inputs.to(dtype))
+            if self.forward_gradient
+            else None
+        )
         if first_order is None:
             return _PredictionCache(prepared, solve=solve)
         contraction = first_order.row_contraction(alpha.to(dtype))

@@ -2,7 +2,9 @@
 first-order sample (the default) against the plain form (prepare_first_order switched off),
 eager and compiled, on a cart-pole SE GP of N exploration points.
 
-    PYTHONPATH=. python docs/results/forward_gradient/same_objective.py 180
+    PYTHONPATH=. python docs/results/forward_gradient/same_objective.py 180 [DROPOUT]
+
+(DROPOUT: the policy's dropout probability, 0.25 by default as at the start of a search.)
 """
 
 import sys
@@ -18,6 +20,7 @@ from runners.bench import CARTPOLE, CONFIG_DIR, exploration_data
 
 torch.set_num_threads(1)
 n = int(sys.argv[1])
+dropout = float(sys.argv[2]) if len(sys.argv) > 2 else 0.25
 with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
     cfg = compose("train", overrides=["dtype=float64", "rollout_dtype=null", *CARTPOLE])
 experiment = build(cfg)
@@ -37,7 +40,7 @@ def objective(use_first_order: bool, compile: bool) -> tuple[float, torch.Tensor
     )
     c.policy.zero_grad(set_to_none=True)
     with frozen(c.model):
-        cost = rollout(400, 0.25, torch.Generator().manual_seed(7)).total_cost
+        cost = rollout(400, dropout, torch.Generator().manual_seed(7)).total_cost
         cost.backward()
     gradient = torch.cat([p.grad.flatten() for p in c.policy.parameters()])
     return float(cost.detach()), gradient
@@ -47,7 +50,7 @@ for compile in (False, True):
     cost_new, grad_new = objective(True, compile)
     cost_old, grad_old = objective(False, compile)
     print(
-        f"n={n} compile={compile}: Ĵ {cost_new:.12g} vs {cost_old:.12g} "
+        f"n={n} dropout={dropout} compile={compile}: Ĵ {cost_new:.12g} vs {cost_old:.12g} "
         f"(rel {abs(cost_new - cost_old) / abs(cost_old):.1e}); gradient rel "
         f"{float((grad_new - grad_old).norm() / grad_old.norm()):.1e}"
     )
