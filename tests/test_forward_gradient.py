@@ -57,7 +57,7 @@ def make_gp(
 ) -> ExactGP:
     x = torch.randn(n, 3, generator=generator, dtype=torch.float64)
     y = torch.stack([torch.sin(x[:, 0]) * x[:, 1], torch.cos(x[:, 2]) + x[:, 0]], 1)
-    gp = ExactGP(kernel, noise_std=noise_std, noise_std_min=noise_std / 10)
+    gp = ExactGP(kernel, noise_std=noise_std, noise_std_min=noise_std / 10, forward_gradient=True)
     gp.set_data(x, y)
     return gp
 

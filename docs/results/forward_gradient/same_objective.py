@@ -1,6 +1,6 @@
 """Same GP, policy and draws: Ĵ and the policy gradient of a whole rollout through the
-first-order sample (the default) against the plain form (prepare_first_order switched off),
-eager and compiled, on a cart-pole SE GP of N exploration points.
+first-order sample (gp.forward_gradient=true) against the plain form (false), eager and
+compiled, on a cart-pole SE GP of N exploration points.
 
     PYTHONPATH=. python docs/results/forward_gradient/same_objective.py 180 [DROPOUT]
 
@@ -13,7 +13,6 @@ import torch
 from hydra import compose, initialize_config_dir
 
 from mcpilco.build import build
-from mcpilco.kernels import SquaredExponential
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
 from runners.bench import CARTPOLE, CONFIG_DIR, exploration_data
@@ -27,13 +26,10 @@ experiment = build(cfg)
 c = experiment.components
 states, actions = exploration_data(experiment, n)
 c.model.fit(states, actions)
-first_order = SquaredExponential.prepare_first_order
 
 
 def objective(use_first_order: bool, compile: bool) -> tuple[float, torch.Tensor]:
-    SquaredExponential.prepare_first_order = (  # type: ignore[method-assign]
-        first_order if use_first_order else (lambda self, x2: None)
-    )
+    c.model.gp.forward_gradient = use_first_order
     c.model.gp.precompute()  # rebuild the prediction cache with or without the form
     rollout = ParticleRollout.for_system(
         c.system, c.model, c.policy, c.cost, c.estimator, compile=compile, dtype=None
