@@ -13,26 +13,14 @@ from mcpilco.errors import ConfigError
 from mcpilco.gp import ExactGP
 from mcpilco.kernels import (
     Kernel,
-    KernelShape,
     Linear,
     MultiplicativePolynomial,
     PhysicalBasis,
     SquaredExponential,
     Sum,
 )
+from tests.test_kernels import SHAPE  # the two-output toy basis of the kernel tests
 
-
-def basis(x: torch.Tensor) -> torch.Tensor:
-    """A two-output toy basis [G=2, N, P=3] (non-linear in x, so its Jacobian matters)."""
-    return torch.stack(
-        [
-            torch.stack([x[:, 0] * x[:, 1], torch.sin(x[:, 2]), x[:, 0]], -1),
-            torch.stack([x[:, 1] ** 2, torch.cos(x[:, 0]), x[:, 2]], -1),
-        ]
-    )
-
-
-SHAPE = KernelShape(num_outputs=2, input_dim=3, basis=basis)
 KERNELS: dict[str, Callable[[], Kernel]] = {
     "se": lambda: SquaredExponential(SHAPE, lengthscale=[0.5, 1.0, 2.0], variance=2.0),
     "se_subset": lambda: SquaredExponential(SHAPE, lengthscale=[0.8, 1.5], active_dims=[0, 2]),

@@ -105,11 +105,7 @@ class SquaredExponential(Kernel):
         """k(x1, x2) = exp(2 z1·z2 − |z1|² − (|z2|² − log λ²)) with z = x/ℓ; the x2 terms
         are computed once, leaving one batched matmul and one exp per call
         (:class:`_PreparedCross`)."""
-        # constants of the predictions (no gradient): detached once, not per call
-        inverse_lengthscale = torch.exp(-self.log_lengthscale).detach()[:, None, :]  # [G, 1, D]
-        z2 = select_dims(x2, self.active_dims) * inverse_lengthscale  # [G, N, D]
-        offset = z2.square().sum(-1, keepdim=True) - self.log_variance[:, None, None]  # [G, N, 1]
-        training = torch.cat([2.0 * z2, -torch.ones_like(offset), -offset], -1)  # [G, N, D+2]
+        inverse_lengthscale, training = self._training_side(x2)
         prior_variance = torch.exp(self.log_variance)[:, None]  # [G, 1]
         dims = self.active_dims
 
@@ -119,10 +115,19 @@ class SquaredExponential(Kernel):
 
         return cross
 
-    def prepare_first_order(self, x2: torch.Tensor) -> FirstOrderCross:
+    def _training_side(self, x2: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Constants of predictions at training inputs ``x2`` (no gradient to ι): ι ``[G, 1,
+        D]`` and the training side ``[2 z2 | −1 | −offset]`` ``[G, N, D+2]`` with z2 = x2 ⊙ ι
+        and offset = |z2|² − log λ²."""
         inverse_lengthscale = torch.exp(-self.log_lengthscale).detach()[:, None, :]  # [G, 1, D]
         z2 = select_dims(x2, self.active_dims) * inverse_lengthscale  # [G, N, D]
-        return _FirstOrderSE(inverse_lengthscale, z2, self.log_variance.detach(), self.active_dims)
+        offset = z2.square().sum(-1, keepdim=True) - self.log_variance[:, None, None]  # [G, N, 1]
+        return inverse_lengthscale, torch.cat([2.0 * z2, -torch.ones_like(offset), -offset], -1)
+
+    def prepare_first_order(self, x2: torch.Tensor) -> FirstOrderCross:
+        inverse_lengthscale, training = self._training_side(x2)
+        variance = torch.exp(self.log_variance.detach())[:, None]  # [G, 1]
+        return _FirstOrderSE(inverse_lengthscale, training.detach(), variance, self.active_dims)
 
     def diag(self, x: torch.Tensor) -> torch.Tensor:
         return torch.exp(self.log_variance)[:, None].expand(-1, x.shape[-2])
@@ -138,14 +143,13 @@ class _FirstOrderSE(FirstOrderCross):
     def __init__(
         self,
         inverse_lengthscale: torch.Tensor,
-        z2: torch.Tensor,
-        log_variance: torch.Tensor,
+        training: torch.Tensor,
+        variance: torch.Tensor,
         active_dims: tuple[int, ...] | None,
     ) -> None:
-        offset = z2.square().sum(-1, keepdim=True) - log_variance[:, None, None]  # [G, N, 1]
         self.inverse_lengthscale = inverse_lengthscale  # [G, 1, D]
-        self.training = torch.cat([2.0 * z2, -torch.ones_like(offset), -offset], -1)
-        self.variance = torch.exp(log_variance)[:, None]  # [G, 1]
+        self.training = training  # [2 z2 | −1 | −offset] [G, N, D+2]
+        self.variance = variance  # λ² [G, 1]
         self.active_dims = active_dims
 
     @property

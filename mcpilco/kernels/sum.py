@@ -107,10 +107,7 @@ class _FirstOrderSum(FirstOrderCross):
         def finish(features: torch.Tensor, state: Any, folded: torch.Tensor) -> torch.Tensor:
             splits = zip(self._terms(features), state, strict=True)
             return torch.cat(
-                [
-                    part.contract(f, part_state, weights_t)[0].expand_as(f)
-                    for (part, f), part_state in splits
-                ],
+                [part.contract(f, part_state, weights_t)[0] for (part, f), part_state in splits],
                 -1,
             )
 
