@@ -20,6 +20,7 @@ import argparse
 import logging
 import statistics
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,7 +28,7 @@ import numpy as np
 import torch
 from hydra import compose, initialize_config_dir
 
-from mcpilco.build import build
+from mcpilco.build import Experiment, build
 from mcpilco.errors import NotPositiveDefiniteError
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
@@ -83,6 +84,22 @@ def exploration_data(experiment, n: int, seed: int = 0):  # type: ignore[no-unty
     return states, actions
 
 
+def fitted_experiment(overrides: Sequence[str], n: int) -> Experiment:
+    """The ``train`` experiment with ``overrides``, its model fitted to exactly ``n``
+    exploration points (seed 0, trimmed when the last rollout overshoots) and its
+    prediction cache built: the starting point of every step timing and step study."""
+    with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
+        cfg = compose("train", overrides=list(overrides))
+    experiment = build(cfg)
+    model = experiment.components.model
+    model.fit(*exploration_data(experiment, n))
+    assert model.gp is not None
+    if model.gp.train_inputs.shape[0] != n:
+        model.gp.set_data(model.gp.train_inputs[:n], model.gp.train_targets[:n])
+        model.gp.precompute()
+    return experiment
+
+
 def synchronize(device: str) -> None:
     """Wait for queued GPU work, so that wall-clock readings cover it."""
     if device.startswith("cuda"):
@@ -127,16 +144,8 @@ def time_steps(
         else [f"dtype={dtype}", "rollout_dtype=null"]
     )
     overrides = [*dtypes, *setting, f"device={device}", f"compile={compile}"]
-    with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
-        cfg = compose("train", overrides=overrides)
-    experiment = build(cfg)
+    experiment = fitted_experiment(overrides, n)
     c = experiment.components
-    states, actions = exploration_data(experiment, n)
-    c.model.fit(states, actions)
-    assert c.model.gp is not None
-    if c.model.gp.train_inputs.shape[0] != n:  # trim to exactly n points
-        c.model.gp.set_data(c.model.gp.train_inputs[:n], c.model.gp.train_targets[:n])
-        c.model.gp.precompute()
     rollout = ParticleRollout.for_system(
         c.system, c.model, c.policy, c.cost, c.estimator, compile=compile, dtype=c.rollout_dtype
     )

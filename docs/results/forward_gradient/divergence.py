@@ -11,21 +11,14 @@ import copy
 import sys
 
 import torch
-from hydra import compose, initialize_config_dir
-
-from mcpilco.build import build
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
-from runners.bench import CARTPOLE, CONFIG_DIR, exploration_data
+from runners.bench import CARTPOLE, fitted_experiment
 
 torch.set_num_threads(1)
 n = int(sys.argv[1])
-with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
-    cfg = compose("train", overrides=["dtype=float64", "rollout_dtype=null", *CARTPOLE])
-experiment = build(cfg)
+experiment = fitted_experiment(["dtype=float64", "rollout_dtype=null", *CARTPOLE], n)
 c = experiment.components
-states, actions = exploration_data(experiment, n)
-c.model.fit(states, actions)
 start = copy.deepcopy(c.policy.state_dict())
 
 

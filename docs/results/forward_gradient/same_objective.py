@@ -10,22 +10,15 @@ compiled, on a cart-pole SE GP of N exploration points.
 import sys
 
 import torch
-from hydra import compose, initialize_config_dir
-
-from mcpilco.build import build
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
-from runners.bench import CARTPOLE, CONFIG_DIR, exploration_data
+from runners.bench import CARTPOLE, fitted_experiment
 
 torch.set_num_threads(1)
 n = int(sys.argv[1])
 dropout = float(sys.argv[2]) if len(sys.argv) > 2 else 0.25
-with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
-    cfg = compose("train", overrides=["dtype=float64", "rollout_dtype=null", *CARTPOLE])
-experiment = build(cfg)
+experiment = fitted_experiment(["dtype=float64", "rollout_dtype=null", *CARTPOLE], n)
 c = experiment.components
-states, actions = exploration_data(experiment, n)
-c.model.fit(states, actions)
 
 
 def objective(use_first_order: bool, compile: bool) -> tuple[float, torch.Tensor]:

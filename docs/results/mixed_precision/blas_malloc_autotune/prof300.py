@@ -1,17 +1,10 @@
 import sys, torch, time
 torch.set_num_threads(1)
-from hydra import compose, initialize_config_dir
-from runners.bench import CONFIG_DIR, CARTPOLE, exploration_data, frozen
-from mcpilco.build import build
+from runners.bench import CARTPOLE, fitted_experiment, frozen
 from mcpilco.optim.rollout import ParticleRollout
 n=int(sys.argv[1])
-with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
-    cfg = compose("train", overrides=["dtype=float64","rollout_dtype=float32",*CARTPOLE,"compile=True"])
-e=build(cfg); c=e.components
-s,a=exploration_data(e,n); c.model.fit(s,a)
-gp=c.model.gp
-if gp.train_inputs.shape[0]!=n:
-    gp.set_data(gp.train_inputs[:n],gp.train_targets[:n]); gp.precompute()
+e=fitted_experiment(["dtype=float64","rollout_dtype=float32",*CARTPOLE,"compile=True"], n)
+c=e.components
 r=ParticleRollout.for_system(c.system,c.model,c.policy,c.cost,c.estimator,compile=True,dtype=c.rollout_dtype)
 opt=torch.optim.Adam(c.policy.parameters(),lr=0.01)
 def step():

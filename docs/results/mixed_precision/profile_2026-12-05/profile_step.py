@@ -3,19 +3,12 @@ import sys, time, torch
 torch.set_num_threads(1)
 import torch._inductor.config as ic
 ic.cpp.enable_kernel_profile = True
-from hydra import compose, initialize_config_dir
-from mcpilco.build import build
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
-from runners.bench import exploration_data, CONFIG_DIR, CARTPOLE
+from runners.bench import CARTPOLE, fitted_experiment
 dtype, n = sys.argv[1], int(sys.argv[2])
 dt = ["dtype=float64", "rollout_dtype=float32"] if dtype == "mixed" else ["dtype=float64", "rollout_dtype=null"]
-with initialize_config_dir(version_base="1.3", config_dir=CONFIG_DIR):
-    cfg = compose("train", overrides=[*dt, *CARTPOLE, "compile=true"])
-ex = build(cfg); c = ex.components
-s, a = exploration_data(ex, n); c.model.fit(s, a)
-if c.model.gp.train_inputs.shape[0] != n:
-    c.model.gp.set_data(c.model.gp.train_inputs[:n], c.model.gp.train_targets[:n]); c.model.gp.precompute()
+ex = fitted_experiment([*dt, *CARTPOLE, "compile=true"], n); c = ex.components
 r = ParticleRollout.for_system(c.system, c.model, c.policy, c.cost, c.estimator, compile=True, dtype=c.rollout_dtype)
 opt = torch.optim.Adam(c.policy.parameters(), lr=0.01)
 def step():
