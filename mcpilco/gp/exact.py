@@ -11,7 +11,7 @@ import torch
 from torch import nn
 
 from mcpilco.errors import ConfigError
-from mcpilco.gp.forward_gradient import extended_solve_matrix, first_order_sample
+from mcpilco.gp.forward_gradient import FirstOrderForm
 from mcpilco.gp.linalg import cholesky_with_jitter
 from mcpilco.gp.prediction import (
     VARIANCE_FLOOR,
@@ -23,7 +23,6 @@ from mcpilco.gp.prediction import (
     whitened_posterior_sample,
 )
 from mcpilco.kernels.base import Kernel, PreparedKernel
-from mcpilco.kernels.first_order import FirstOrderCross, RowFinish
 
 WHITENED_DTYPES = (torch.float32, torch.float16, torch.bfloat16)
 """Predictions in these dtypes use the whitened form (see :mod:`mcpilco.gp.prediction`)."""
@@ -37,11 +36,9 @@ class _PredictionCache:
 
     kernel: PreparedKernel  # x* [M, D] -> (k(x*, X) [G, M, N], k(x*, x*) [G, M])
     solve: torch.Tensor | None = None
-    # inverse form with a kernel that forms its own derivatives (samples through
-    # mcpilco.gp.forward_gradient): the prepared kernel, [Γ⁻¹ | α | columns], finish
-    first_order: FirstOrderCross | None = None
-    extended: torch.Tensor | None = None
-    finish: RowFinish | None = None
+    # inverse form with a kernel that forms its own derivatives: samples with a gradient
+    # go through it (mcpilco.gp.forward_gradient); ``solve`` is then a view of its matrix
+    first_order: FirstOrderForm | None = None
     # L and Lᵀ, each stored contiguous: MKL's float32 solve is faster with the operand
     # contiguous than with a transposed view (forward, Lᵀ: 1.15 vs 1.22 ms; backward, L:
     # 1.17 vs 1.21 ms at N = 300, M = 400, one thread), so both are kept
@@ -68,8 +65,7 @@ class _PredictionCache:
         a gradient is being taken, else through :func:`posterior_sample` (no gradient, or
         a kernel without it) or the whitened form (float32)."""
         if self.first_order is not None and torch.is_grad_enabled() and inputs.requires_grad:
-            assert self.extended is not None and self.finish is not None
-            return first_order_sample(inputs, self.first_order, self.extended, self.finish, noise)
+            return self.first_order.sample(inputs, noise)
         cross, prior_variance = self.kernel(inputs)
         if self.solve is not None:
             return posterior_sample(cross, prior_variance, self.solve, noise)
@@ -195,15 +191,8 @@ class ExactGP(nn.Module):
         )
         if first_order is None:
             return _PredictionCache(prepared, solve=solve)
-        contraction = first_order.row_contraction(alpha.to(dtype))
-        extended = extended_solve_matrix(solve, contraction.columns)
-        return _PredictionCache(  # solve as a view of extended: Γ⁻¹ is stored once
-            prepared,
-            solve=extended[..., : solve.shape[-1]],
-            first_order=first_order,
-            extended=extended,
-            finish=contraction.finish,
-        )
+        form = FirstOrderForm.from_solve(first_order, solve)
+        return _PredictionCache(prepared, solve=form.solve, first_order=form)
 
     def posterior_weights(self) -> tuple[torch.Tensor, torch.Tensor]:
         """Γ⁻¹ ``[G, N, N]`` and α = Γ⁻¹ y ``[G, N]`` of the fitted GP (no gradient)."""

@@ -17,6 +17,7 @@ those of the plain form; the numbers agree with it to rounding.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import torch
@@ -24,12 +25,6 @@ from torch.autograd.function import once_differentiable
 
 from mcpilco.gp.prediction import VARIANCE_FLOOR
 from mcpilco.kernels.first_order import FirstOrderCross, RowFinish
-
-
-def extended_solve_matrix(solve: torch.Tensor, columns: torch.Tensor) -> torch.Tensor:
-    """``[Γ⁻¹ | α | columns]`` ``[G, N, N+1+C]`` from ``solve`` = [Γ⁻¹ | α] and a row
-    contraction's ``columns`` ``[G, N, C]`` (compute once per fitted GP)."""
-    return torch.cat([solve, columns.to(solve.dtype)], dim=-1).detach().contiguous()
 
 
 class _FirstOrderSample(torch.autograd.Function):
@@ -66,21 +61,39 @@ class _FirstOrderSample(torch.autograd.Function):
         return grad.unsqueeze(-1) * jacobian, None, None, None, None
 
 
-def first_order_sample(
-    inputs: torch.Tensor,
-    kernel: FirstOrderCross,
-    extended: torch.Tensor,
-    finish: RowFinish,
-    noise: torch.Tensor,
-) -> torch.Tensor:
-    """Reparameterised sample mean + std ⊙ noise ``[G, M]`` of the latent posterior at
-    ``inputs [M, D]``, differentiable w.r.t. ``inputs`` (through the kernel's features).
+@dataclass(frozen=True)
+class FirstOrderForm:
+    """What first-order samples of one fitted GP reuse (built once per fit, float64).
 
-    Args:
+    Attributes:
         kernel: the prepared kernel (:meth:`~mcpilco.kernels.base.Kernel.prepare_first_order`).
-        extended: ``[Γ⁻¹ | α | columns]`` from :func:`extended_solve_matrix` (a constant).
-        finish: the row contraction's ``finish`` for α (the same call as ``columns``).
-        noise: standard normal ``[G, M]`` (constant).
+        extended: ``[Γ⁻¹ | α | columns]`` ``[G, N, N+1+C]``, the row contraction's columns
+            for α beside the plain form's ``[Γ⁻¹ | α]`` (a constant).
+        finish: the same row contraction's ``finish``.
     """
-    features = kernel.features(inputs)
-    return _FirstOrderSample.apply(features, kernel, extended.detach(), finish, noise.detach())
+
+    kernel: FirstOrderCross
+    extended: torch.Tensor
+    finish: RowFinish
+
+    @classmethod
+    def from_solve(cls, kernel: FirstOrderCross, solve: torch.Tensor) -> FirstOrderForm:
+        """The form from the plain ``solve`` = [Γ⁻¹ | α] ``[G, N, N+1]``."""
+        contraction = kernel.row_contraction(solve[..., -1])
+        columns = contraction.columns.to(solve.dtype)
+        extended = torch.cat([solve, columns], dim=-1).detach().contiguous()
+        return cls(kernel, extended, contraction.finish)
+
+    @property
+    def solve(self) -> torch.Tensor:
+        """[Γ⁻¹ | α] ``[G, N, N+1]`` as a view of ``extended`` (Γ⁻¹ is stored once)."""
+        return self.extended[..., : self.extended.shape[-2] + 1]
+
+    def sample(self, inputs: torch.Tensor, noise: torch.Tensor) -> torch.Tensor:
+        """Reparameterised sample mean + std ⊙ noise ``[G, M]`` of the latent posterior at
+        ``inputs [M, D]``, differentiable w.r.t. ``inputs`` (through the kernel's
+        features); ``noise``: standard normal ``[G, M]`` (constant)."""
+        features = self.kernel.features(inputs)
+        return _FirstOrderSample.apply(
+            features, self.kernel, self.extended, self.finish, noise.detach()
+        )
