@@ -4,8 +4,8 @@ Prints, for one policy-optimisation step (particle rollout + backward + Adam) of
 cart-pole speed-integration SE model at M=400, T=60, n_b=200: the median wall time over
 ``--steps`` steps after warm-up for n = 60 and n = 300 training points in float64, float32
 and the mixed setting (float64 GP, float32 rollout), eager and compiled, float64 compiled
-with ``model.gp.forward_gradient=true``, and again compiled with one thread when torch has
-more; the rollout's achieved GFLOP/s (flops counted
+with ``model.gp.forward_gradient=false`` (autograd), and again compiled with one thread
+when torch has more; the rollout's achieved GFLOP/s (flops counted
 analytically from the dominant products, see :func:`rollout_flops`), the machine's own
 float64 matmul GFLOP/s measured in the same run, the GP fit time at n = 300 against the
 reference recipe (1500 full-batch Adam steps at learning rate 0.01), the per-call latency
@@ -108,8 +108,8 @@ def synchronize(device: str) -> None:
 
 CARTPOLE = ("kernel=se", "model=speed_integration")
 """The cart-pole setting of the step figures (M 400, T 60, n_b 200)."""
-FORWARD_GRADIENT = "model.gp.forward_gradient=true"
-"""The opt-in GP samples with the gradient formed in the forward pass
+AUTOGRAD = "model.gp.forward_gradient=false"
+"""GP samples' gradient through autograd, the default before the forward-pass form
 (``docs/results/forward_gradient/``)."""
 UR5 = ("+experiment=ur5", "model.reduction_threshold=null")
 """The UR5 setting (thesis §2.6.3: M 200, T 200, n_b 400, 6 GP outputs, SE + linear)."""
@@ -260,9 +260,9 @@ def main() -> None:
                     f"  n={n:3d} {dtype:7s}: median {timing.median * 1e3:7.1f} ms/step over "
                     f"{args.steps} steps, rollout {timing.gflops:5.2f} GFLOP/s, {mode}"
                 )
-    print("float64 with model.gp.forward_gradient=true (opt-in), compiled:")  # noqa: T201
+    print("float64 with model.gp.forward_gradient=false (autograd), compiled:")  # noqa: T201
     for n in (60, 300):
-        setting = (*CARTPOLE, FORWARD_GRADIENT)
+        setting = (*CARTPOLE, AUTOGRAD)
         timing = time_steps("float64", n, args.steps, args.warmup, args.device, setting, True)
         print(  # noqa: T201
             f"  n={n:3d} float64: median {timing.median * 1e3:7.1f} ms/step over "

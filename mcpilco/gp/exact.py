@@ -86,9 +86,9 @@ class ExactGP(nn.Module):
         output_names: a name per output, for messages.
         forward_gradient: samples taken with a gradient (particle rollouts) form it in the
             forward pass where the kernel offers that (:mod:`mcpilco.gp.forward_gradient`;
-            float64 inverse form); False (the default): through autograd. Same numbers to
-            rounding, 15–21 % faster steps; opt-in because its learning check fell short
-            of its rule (``docs/results/forward_gradient/``).
+            float64 inverse form); False (this constructor's default): through autograd.
+            Same numbers to rounding, 15–21 % faster steps; the model configs
+            (``conf/model/*.yaml``) turn it on (``docs/results/forward_gradient/``).
     """
 
     def __init__(
