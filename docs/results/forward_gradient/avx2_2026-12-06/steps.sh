@@ -1,0 +1,12 @@
+#!/bin/bash
+# Alternating processes, one at a time, one torch thread, nothing else on the two cores.
+here=$(cd "$(dirname "$0")" && pwd); root=$(cd "$here/../../../.." && pwd)
+date; lscpu | grep -E "Model name"; grep -o -m1 'avx512f' /proc/cpuinfo || echo "no avx512f"
+for n in 60 300; do
+  for round in 1 2; do
+    for path in default autograd; do
+      (cd "$root" && .venv/bin/python "$here/steps_fg.py" $n $path 2>&1 | grep ms/step)
+    done
+  done
+done
+date
