@@ -65,6 +65,9 @@ def check_top_level(cfg: DictConfig) -> tuple[torch.dtype, torch.device]:
         raise ConfigError(f"threads={cfg.threads!r} must be a positive integer or null")
     if not isinstance(cfg.get("compile", False), bool) and cfg.get("compile") != "auto":
         raise ConfigError(f"compile={cfg.compile!r} must be true, false or auto")
+    steps = cfg.get("compile_steps", 1)
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+        raise ConfigError(f"compile_steps={steps!r} must be a positive integer")
     return DTYPES[cfg.dtype], resolve_device(cfg.device)
 
 
@@ -134,6 +137,7 @@ def build(cfg: DictConfig) -> Experiment:
         exploration=exploration_factory(make(cfg.exploration), system),
         simulate_estimator=bool(cfg.get("simulate_estimator", True)),
         compile="auto" if cfg.get("compile") == "auto" else bool(cfg.get("compile", False)),
+        compile_steps=int(cfg.get("compile_steps", 1)),
         rollout_dtype=None if cfg.get("rollout_dtype") is None else DTYPES[cfg.rollout_dtype],
     )
     components.exploration(rng=np.random.default_rng(0))  # its errors too, before any work

@@ -51,6 +51,8 @@ class Components:
     compile: bool | str = False
     """torch.compile the particle step: true, false or ``"auto"`` (see
     :class:`ParticleRollout`)."""
+    compile_steps: int = 1
+    """Time steps per compiled call (see :class:`ParticleRollout`)."""
     rollout_dtype: torch.dtype | None = None
     """The particles' dtype in policy optimisation (None: the run's ``dtype``; float32 with
     float64: the mixed setting, see :class:`ParticleRollout`)."""
@@ -91,6 +93,7 @@ class TrialLoop:
             c.simulate_estimator,
             c.compile,
             c.rollout_dtype,
+            c.compile_steps,
         )
         self.trajectories: list[Trajectory] = []
 

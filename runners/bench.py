@@ -147,7 +147,14 @@ def time_steps(
     experiment = fitted_experiment(overrides, n)
     c = experiment.components
     rollout = ParticleRollout.for_system(
-        c.system, c.model, c.policy, c.cost, c.estimator, compile=compile, dtype=c.rollout_dtype
+        c.system,
+        c.model,
+        c.policy,
+        c.cost,
+        c.estimator,
+        compile=compile,
+        dtype=c.rollout_dtype,
+        compile_steps=c.compile_steps,
     )
     optimizer = torch.optim.Adam(c.policy.parameters(), lr=0.01)
     particles = c.optimizer.num_particles

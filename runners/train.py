@@ -26,7 +26,15 @@ CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.train")
 
 
-MACHINE_KEYS = ("num_trials", "threads", "device", "resume", "overwrite", "compile")
+MACHINE_KEYS = (
+    "num_trials",
+    "threads",
+    "device",
+    "resume",
+    "overwrite",
+    "compile",
+    "compile_steps",
+)
 
 
 def check_same_run(cfg: DictConfig, run_dir: Path) -> None:
@@ -64,8 +72,8 @@ def resolve_resume(cfg: DictConfig) -> tuple[DictConfig, Path]:
 
     A resumed run keeps its saved config (checked before anything in it is built, see
     :mod:`mcpilco.safe_config`); only ``num_trials`` (to extend the run) and
-    ``threads``/``device``/``compile`` (the machine) are taken from the command line, and
-    only when given there.
+    ``threads``/``device``/``compile``/``compile_steps`` (the machine) are taken from the
+    command line, and only when given there.
     """
     if cfg.get("resume") is None:
         return cfg, Path(HydraConfig.get().runtime.output_dir)
@@ -73,7 +81,7 @@ def resolve_resume(cfg: DictConfig) -> tuple[DictConfig, Path]:
     if not (run_dir / "config.yaml").is_file():
         raise ConfigError(f"resume={cfg.resume!r} holds no config.yaml")
     saved = load_run_config(run_dir)
-    for key in ("num_trials", "threads", "device", "compile"):
+    for key in ("num_trials", "threads", "device", "compile", "compile_steps"):
         if given_on_command_line(key) or key not in saved:
             saved[key] = cfg.get(key)
     saved.resume = str(run_dir)

@@ -124,7 +124,7 @@ def test_a_failing_compiler_falls_back_to_eager_with_a_warning(
         raise RuntimeError("no C++ compiler")
 
     rollout.compiler.compile = True
-    rollout.compiler._compiled["_state_step"] = broken
+    rollout.compiler._compiled["_steps"] = broken
     with caplog.at_level(logging.WARNING), frozen(c.model):
         cost, gradient = cost_and_gradient(rollout, 0.25, 0)
     assert "running eagerly" in caplog.text and "no C++ compiler" in caplog.text
@@ -189,8 +189,14 @@ class _FailingBackward(torch.autograd.Function):
         raise ImportError("cache/kernel.main.so: file too short")
 
 
-def _failing_backward(step: Callable[..., torch.Tensor]) -> Callable[..., torch.Tensor]:
-    return lambda *args: _FailingBackward.apply(step(*args))
+def _failing_backward(
+    steps: Callable[..., tuple[tuple[torch.Tensor, ...], list[torch.Tensor]]],
+) -> Callable[..., tuple[tuple[torch.Tensor, ...], list[torch.Tensor]]]:
+    def run(*args: object) -> tuple[tuple[torch.Tensor, ...], list[torch.Tensor]]:
+        carry, states = steps(*args)
+        return carry, [_FailingBackward.apply(state) for state in states]
+
+    return run
 
 
 def test_a_backward_that_fails_to_compile_replays_the_step_eagerly(
@@ -213,7 +219,7 @@ def test_a_backward_that_fails_to_compile_replays_the_step_eagerly(
             c.system, c.model, c.policy, c.cost, c.estimator, compile=compiled
         )
         if compiled:
-            rollout.compiler._compiled["_state_step"] = _failing_backward(rollout._state_step)
+            rollout.compiler._compiled["_steps"] = _failing_backward(rollout._steps)
         optimizer = PolicyOptimizer(
             num_particles=PARTICLES, max_steps=3, max_steps_first_trial=3, schedule=schedule
         )
@@ -226,3 +232,41 @@ def test_a_backward_that_fails_to_compile_replays_the_step_eagerly(
     assert "file too short" in caplog.text and "running eagerly" in caplog.text
     assert not rollout.compiler.compile
     torch.testing.assert_close(final[1], final[0], rtol=0, atol=0)
+
+
+@pytest.mark.parametrize(
+    "experiment",
+    [["rollout_dtype=null"], ["+experiment=cartpole_pms", "rollout_dtype=null"]],
+    ids=["state", "readings"],
+)
+def test_several_time_steps_per_compiled_call_give_the_one_step_rollout(
+    experiment: list[str],
+) -> None:
+    """A 10- or 15-step rollout run 4 steps per call (the first one or two steps eager,
+    then chunks of 4 and a shorter last one) gives, eagerly, exactly the numbers of one
+    step per call, and compiled the eager Ĵ and gradient to rounding."""
+    torch._dynamo.reset()
+    built = small_experiment(*experiment)
+    c = built.components
+    horizon = c.system.num_steps
+    states, actions = exploration_data(built, 20)
+    c.model.fit(states, actions)
+    args = (c.system, c.model, c.policy, c.cost, c.estimator, c.simulate_estimator)
+    one = ParticleRollout.for_system(*args, dtype=c.rollout_dtype)
+    chunked = ParticleRollout.for_system(*args, dtype=c.rollout_dtype, compile_steps=4)
+    compiled = ParticleRollout.for_system(
+        *args, compile=True, dtype=c.rollout_dtype, compile_steps=4
+    )
+    with frozen(c.model):
+        cost, gradient = cost_and_gradient(one, 0.25, 0)
+        cost_chunked, gradient_chunked = cost_and_gradient(chunked, 0.25, 0)
+        cost_compiled, gradient_compiled = cost_and_gradient(compiled, 0.25, 0)
+        states_one = one(PARTICLES, 0.0, torch.Generator().manual_seed(1)).states
+        states_chunked = chunked(PARTICLES, 0.0, torch.Generator().manual_seed(1)).states
+    assert cost_chunked == cost
+    torch.testing.assert_close(gradient_chunked, gradient, rtol=0, atol=0)
+    torch.testing.assert_close(states_chunked, states_one, rtol=0, atol=0)
+    assert states_one.shape == (horizon + 1, PARTICLES, c.system.state_dim)
+    assert cost_compiled == pytest.approx(cost, rel=1e-7)
+    torch.testing.assert_close(gradient_compiled, gradient, rtol=1e-5, atol=1e-8)
+    assert compiled.compiler.compile  # never fell back to eager

@@ -197,6 +197,8 @@ def test_unknown_option_lists_the_choices() -> None:
         ("num_trials=0", "num_trials"),
         ("device=tpu", "device"),
         ("compile=sometimes", "compile"),
+        ("compile_steps=0", "compile_steps"),
+        ("compile_steps=2.5", "compile_steps"),
     ],
 )
 def test_bad_values_fail_with_the_key_in_one_line(override: str, key: str) -> None:

@@ -61,6 +61,9 @@ class ParticleRollout:
             (:class:`~mcpilco.optim.compile_choice.CompileChoice`); the run is then
             reproducible only up to rounding. Held by :attr:`compiler`
             (:class:`~mcpilco.optim.step_compiler.StepCompiler`).
+        compile_steps: time steps per compiled call (one graph runs that many steps and
+            their backward): fewer calls, guard checks and autograd nodes per rollout.
+            The numbers are those of one step per call up to rounding.
         dtype: the particles' dtype (None: the policy's). ``float32`` with a float64 model
             and policy is the mixed setting (``rollout_dtype=float32``): the GP stays fitted
             and factorised in float64, the rollout (features, policy, cross-covariances,
@@ -82,9 +85,10 @@ class ParticleRollout:
         initial_uniform: bool = False,
         compile: bool | str = False,
         dtype: torch.dtype | None = None,
+        compile_steps: int = 1,
     ) -> None:
         self.initial_uniform = initial_uniform
-        self.compiler = StepCompiler(compile)
+        self.compiler = StepCompiler(compile, compile_steps)
         self.sensors = sensors
         self.model = model
         self.policy = policy
@@ -110,11 +114,12 @@ class ParticleRollout:
         simulate_estimator: bool = True,
         compile: bool | str = False,
         dtype: torch.dtype | None = None,
+        compile_steps: int = 1,
     ) -> ParticleRollout:
         """A rollout from the system's p(x0) over one trial, on the policy's device, in
         ``dtype`` (None: the policy's); with ``simulate_estimator`` false the policy sees
         the particles instead of online estimates of their simulated readings (MC-PILCO
-        instead of MC-PILCO4PMS); ``compile``, ``dtype``: see the class."""
+        instead of MC-PILCO4PMS); ``compile``, ``dtype``, ``compile_steps``: see the class."""
         like = next(policy.parameters())
         return cls(
             model=model,
@@ -128,6 +133,7 @@ class ParticleRollout:
             initial_uniform=system.initial_distribution == "uniform",
             compile=compile,
             dtype=dtype,
+            compile_steps=compile_steps,
         )
 
     def __call__(
@@ -171,34 +177,20 @@ class ParticleRollout:
         act = self.policy.prepare(dropout, self.dtype) if act is None else act
         particles = model.initial_particles(self.initial_states(start))
         states = [model.physical_state(particles)]
-        memory = self.estimator.online_reset(num_particles, particles)
-        seen: torch.Tensor | None = None  # what the policy reads (a history for DF models)
-        actions: torch.Tensor | None = None
-        for t in range(self.horizon):
-            bits_now = None if bits is None else bits[t]
-            if readings is None:
-                # first step eager: its particles need no gradient (one graph fewer)
-                particles = self.compiler.run(
-                    self._state_step, t >= 1, act, particles, bits_now, noise[t], t
-                )
-            else:
-                gaussian, uniform = readings
-                # first two steps eager: no history yet, then one without gradients
-                particles, memory, seen, actions = self.compiler.run(
-                    self._reading_step,
-                    t >= 2,
-                    act,
-                    particles,
-                    memory,
-                    seen,
-                    actions,
-                    gaussian[t],
-                    None if uniform is None else uniform[t],
-                    bits_now,
-                    noise[t],
-                    t,
-                )
-            states.append(model.physical_state(particles))
+        carry: tuple[Any, ...] = (particles,)
+        per_step: tuple[torch.Tensor | None, ...] = (bits, noise)
+        eager_steps = 1  # the first step eager: its particles need no gradient (a graph fewer)
+        if readings is not None:
+            memory = self.estimator.online_reset(num_particles, particles)
+            carry = (particles, memory, None, None)  # + what the policy read, actions
+            per_step = (*readings, bits, noise)
+            eager_steps = 2  # no history yet, then one without gradients
+        for first, last, compiled in self.compiler.chunks(self.horizon, eager_steps):
+            sliced = tuple(None if x is None else x[first:last] for x in per_step)
+            carry, new_states = self.compiler.run(
+                self._steps, compiled, readings is not None, act, carry, sliced, first
+            )
+            states.extend(new_states)
         trajectory = torch.stack(states).to(self.result_dtype)  # [T+1, M, d_x]
         step_costs = self.cost(trajectory).mean(-1)  # [T+1]
         return RolloutResult(step_costs.sum(), step_costs, trajectory)
@@ -228,6 +220,34 @@ class ParticleRollout:
         if self._twin.gp is not self.model.gp:
             self._twin.gp = self.model.gp
         return self._twin
+
+    def _steps(
+        self,
+        reads: bool,
+        act: Callable[..., torch.Tensor],
+        carry: tuple[Any, ...],
+        per_step: tuple[torch.Tensor | None, ...],
+        first: int,
+    ) -> tuple[tuple[Any, ...], list[torch.Tensor]]:
+        """Time steps ``first``, ``first`` + 1, … of a rollout, one per entry of the
+        per-step draws ``per_step`` (each ``[k, ...]`` or None; noise last, never None):
+        ``carry`` is (particles,) or, with simulated readings (``reads``), (particles,
+        estimator memory, what the policy read, actions). Returns the new carry and the
+        physical states ``[M, d_x]`` after each step."""
+        model = self.stepping_model()
+        states = []
+        for j in range(per_step[-1].shape[0]):  # type: ignore[union-attr]
+            draws = (None if x is None else x[j] for x in per_step)
+            # ``first`` passed on untouched where it can be: arithmetic on an int input makes
+            # the compiler guard on it (a graph more), which a model that ignores the step
+            # index (no tracking reference) would pay for nothing
+            step = first if j == 0 else first + j
+            if reads:
+                carry = self._reading_step(act, *carry, *draws, step)
+            else:
+                carry = (self._state_step(act, *carry, *draws, step),)
+            states.append(model.physical_state(carry[0]))
+        return carry, states
 
     def _state_step(
         self,
