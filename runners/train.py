@@ -26,15 +26,11 @@ CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.train")
 
 
-MACHINE_KEYS = (
-    "num_trials",
-    "threads",
-    "device",
-    "resume",
-    "overwrite",
-    "compile",
-    "compile_steps",
-)
+RESUME_OVERRIDES = ("num_trials", "threads", "device", "compile", "compile_steps")
+"""What a resumed run takes from the command line (when given there) instead of its saved
+config: how many trials, and the machine it runs on."""
+MACHINE_KEYS = (*RESUME_OVERRIDES, "resume", "overwrite")
+"""Keys that do not make a run another experiment."""
 
 
 def check_same_run(cfg: DictConfig, run_dir: Path) -> None:
@@ -81,7 +77,7 @@ def resolve_resume(cfg: DictConfig) -> tuple[DictConfig, Path]:
     if not (run_dir / "config.yaml").is_file():
         raise ConfigError(f"resume={cfg.resume!r} holds no config.yaml")
     saved = load_run_config(run_dir)
-    for key in ("num_trials", "threads", "device", "compile", "compile_steps"):
+    for key in RESUME_OVERRIDES:
         if given_on_command_line(key) or key not in saved:
             saved[key] = cfg.get(key)
     saved.resume = str(run_dir)

@@ -8,7 +8,7 @@ for n in 60 300; do
   for round in 1 2; do
     for v in before after; do
       root=$before; [ $v = after ] && root=$after
-      (cd "$root" && PYTHONPATH="$root" .venv/bin/python "$here/before_after.py" $n $v 2>&1 | grep ms/step)
+      (cd "$root" && PYTHONPATH="$root" .venv/bin/python "$here/step_time.py" $n $v 2>&1 | grep ms/step)
     done
   done
 done

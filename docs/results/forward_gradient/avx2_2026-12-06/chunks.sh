@@ -6,7 +6,7 @@ date; grep -o -m1 'avx512f' /proc/cpuinfo || echo "no avx512f"
 for n in 60 300; do
   for round in 1 2; do
     for k in 1 6 12; do
-      (cd "$root" && .venv/bin/python "$here/chunks.py" $n $k 2>&1 | grep ms/step)
+      (cd "$root" && .venv/bin/python "$here/step_time.py" $n K=$k --keep-freed-memory compile_steps=$k 2>&1 | grep ms/step)
     done
   done
 done

@@ -5,7 +5,8 @@ date; lscpu | grep -E "Model name"; grep -o -m1 'avx512f' /proc/cpuinfo || echo 
 for n in 60 300; do
   for round in 1 2; do
     for path in default autograd; do
-      (cd "$root" && .venv/bin/python "$here/steps_fg.py" $n $path 2>&1 | grep ms/step)
+      extra=""; [ $path = autograd ] && extra=model.gp.forward_gradient=false
+      (cd "$root" && .venv/bin/python "$here/step_time.py" $n $path $extra 2>&1 | grep ms/step)
     done
   done
 done
