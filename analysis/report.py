@@ -23,9 +23,10 @@
   (:mod:`analysis.prediction_errors`);
 * ``index.md``: what is where, the runs that failed, and the command.
 
-A configuration is everything in the resolved config but the seed (named thesis-style, see
-:func:`analysis.thesis.configuration_label`); a run directory is any folder holding a
-``config.yaml``.
+A configuration is everything in the resolved config but the seed and the machine settings
+(named thesis-style, see :func:`analysis.thesis.configuration_label`, with any other
+setting in which runs of one name differ appended: :mod:`analysis.study_tags`); a run
+directory is any folder holding a ``config.yaml``.
 """
 
 from __future__ import annotations
@@ -57,6 +58,7 @@ from analysis.first_success import (  # noqa: E402
 )
 from analysis.prediction_errors import prediction_error_figure, prediction_errors  # noqa: E402
 from analysis.stats import rate_with_interval, wilson_interval  # noqa: E402
+from analysis.study_tags import distinguished_labels  # noqa: E402
 from analysis.swing_up import ReferenceCost, reference_costs  # noqa: E402
 from analysis.thesis import (  # noqa: E402
     PRECISION,
@@ -68,8 +70,10 @@ from analysis.thesis import (  # noqa: E402
 
 def load_sweep(paths: Iterable[Path]) -> tuple[pd.DataFrame, list[Path]]:
     """One row per (run, trial) of every finished trial under ``paths``, with the run's
-    configuration label, seed and directory; plus the run directories that failed."""
-    rows, failed = [], []
+    configuration label (:func:`~analysis.study_tags.distinguished_labels`: runs that share
+    a thesis-style label but differ in another config value get that value appended), seed
+    and directory; plus the run directories that failed."""
+    summaries, configs, failed = {}, {}, []
     runs = sorted({p.parent for path in paths for p in Path(path).rglob("config.yaml")})
     for run in runs:
         if (run / "failed.txt").is_file():
@@ -78,10 +82,16 @@ def load_sweep(paths: Iterable[Path]) -> tuple[pd.DataFrame, list[Path]]:
             continue
         config = OmegaConf.to_container(OmegaConf.load(run / "config.yaml"), resolve=True)
         assert isinstance(config, dict)
-        summary = pd.read_csv(run / "summary.csv")
-        summary["configuration"] = configuration_label(config)
-        summary["seed"] = config["seed"]
-        summary["run"] = str(run)
+        configs[str(run)] = config
+        summaries[str(run)] = pd.read_csv(run / "summary.csv")
+    labels = distinguished_labels(
+        {run: configuration_label(config) for run, config in configs.items()}, configs
+    )
+    rows = []
+    for run, summary in summaries.items():
+        summary["configuration"] = labels[run]
+        summary["seed"] = configs[run]["seed"]
+        summary["run"] = run
         rows.append(summary)
     table = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
     if "success" in table.columns:  # absent for a system without a success criterion

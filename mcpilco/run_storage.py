@@ -33,6 +33,14 @@ except ImportError:  # not POSIX: no advisory lock
 
 log = logging.getLogger(__name__)
 
+RESUME_OVERRIDES = ("num_trials", "threads", "device", "compile", "compile_steps")
+"""Top-level config keys a resumed run (``runners.train resume=DIR``) takes from the
+command line (when given there) instead of its saved config: how many trials, and the
+machine it runs on."""
+MACHINE_KEYS = (*RESUME_OVERRIDES, "resume", "overwrite")
+"""Top-level config keys that do not make a run another experiment (a resumed run's check
+of its config, :mod:`analysis.study_tags`)."""
+
 
 def _atomic_path(path: Path) -> Path:
     return path.with_name(f".{path.name}.partial")

@@ -13,7 +13,7 @@ from tqdm import tqdm
 from mcpilco.build import build, make
 from mcpilco.errors import ConfigError
 from mcpilco.optim.policy_optimizer import StepInfo
-from mcpilco.run_storage import RunDirectory
+from mcpilco.run_storage import MACHINE_KEYS, RESUME_OVERRIDES, RunDirectory
 from mcpilco.safe_config import load_run_config
 from mcpilco.systems.base import MechanicalSystem
 from mcpilco.tracking.base import TrialObserver
@@ -24,13 +24,6 @@ from runners.process import also_log_to, keep_freed_memory, log_torch_warnings_t
 
 CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.train")
-
-
-RESUME_OVERRIDES = ("num_trials", "threads", "device", "compile", "compile_steps")
-"""What a resumed run takes from the command line (when given there) instead of its saved
-config: how many trials, and the machine it runs on."""
-MACHINE_KEYS = (*RESUME_OVERRIDES, "resume", "overwrite")
-"""Keys that do not make a run another experiment."""
 
 
 def check_same_run(cfg: DictConfig, run_dir: Path) -> None:
