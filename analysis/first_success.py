@@ -20,7 +20,7 @@ from analysis.stats import rate_with_interval, sign_test, wilson_interval
 def first_successes(trials: pd.DataFrame) -> pd.DataFrame:
     """One row per run: configuration, seed, run, ``last_trial`` (the last finished trial)
     and ``first_success`` (the first learned trial whose policy succeeded, or <NA>), from
-    :func:`analysis.report.load_sweep`'s table (one row per run and trial, with ``success``)."""
+    :func:`analysis.sweep.load_sweep`'s table (one row per run and trial, with ``success``)."""
     records = []
     for (configuration, seed, run), group in trials.groupby(["configuration", "seed", "run"]):
         learned = group[group["trial"] >= 1]

@@ -32,7 +32,7 @@ directory is any folder holding a ``config.yaml``.
 from __future__ import annotations
 
 import argparse
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 
 import matplotlib
@@ -40,7 +40,6 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
-from omegaconf import OmegaConf  # noqa: E402
 
 from analysis.calibration_report import (  # noqa: E402
     calibration_figure,
@@ -58,46 +57,13 @@ from analysis.first_success import (  # noqa: E402
 )
 from analysis.prediction_errors import prediction_error_figure, prediction_errors  # noqa: E402
 from analysis.stats import rate_with_interval, wilson_interval  # noqa: E402
-from analysis.study_tags import distinguished_labels  # noqa: E402
+from analysis.sweep import load_sweep  # noqa: E402
 from analysis.swing_up import ReferenceCost, reference_costs  # noqa: E402
 from analysis.thesis import (  # noqa: E402
     PRECISION,
     SUCCESS_RATES,
-    configuration_label,
     thesis_label,
 )
-
-
-def load_sweep(paths: Iterable[Path]) -> tuple[pd.DataFrame, list[Path]]:
-    """One row per (run, trial) of every finished trial under ``paths``, with the run's
-    configuration label (:func:`~analysis.study_tags.distinguished_labels`: runs that share
-    a thesis-style label but differ in another config value get that value appended), seed
-    and directory; plus the run directories that failed."""
-    summaries, configs, failed = {}, {}, []
-    runs = sorted({p.parent for path in paths for p in Path(path).rglob("config.yaml")})
-    for run in runs:
-        if (run / "failed.txt").is_file():
-            failed.append(run)
-        if not (run / "summary.csv").is_file():
-            continue
-        config = OmegaConf.to_container(OmegaConf.load(run / "config.yaml"), resolve=True)
-        assert isinstance(config, dict)
-        configs[str(run)] = config
-        summaries[str(run)] = pd.read_csv(run / "summary.csv")
-    labels = distinguished_labels(
-        {run: configuration_label(config) for run, config in configs.items()}, configs
-    )
-    rows = []
-    for run, summary in summaries.items():
-        summary["configuration"] = labels[run]
-        summary["seed"] = configs[run]["seed"]
-        summary["run"] = run
-        rows.append(summary)
-    table = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
-    if "success" in table.columns:  # absent for a system without a success criterion
-        table["success"] = table["success"].astype("boolean").fillna(False).astype(bool)
-    return table, failed
-
 
 PRECISION_COLUMNS = ("final_position_error", "final_angle_error")
 """What Table 2.2 needs (the cart-pole's final errors)."""

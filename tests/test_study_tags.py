@@ -1,5 +1,5 @@
 """Runs that share a thesis-style label but are different experiments get told apart
-(analysis.study_tags, through analysis.report.load_sweep)."""
+(analysis.study_tags, through analysis.sweep.load_sweep)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import pandas as pd
 from hydra import compose, initialize_config_dir
 from omegaconf import OmegaConf
 
-from analysis.report import load_sweep
 from analysis.study_tags import distinguished_labels, flatten
+from analysis.sweep import load_sweep
 from analysis.thesis import configuration_label
 
 ROOT = Path(__file__).resolve().parent.parent
