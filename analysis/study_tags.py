@@ -28,6 +28,13 @@ IGNORED_GROUPS = ("tracking",)
 """Top-level groups that only say where and how a run is logged."""
 
 
+LIST_MARK = "#"
+"""Marks a list index in a flattened key (dropped when the key is shown)."""
+
+ABSENT = "—"
+"""Shown for a list element's key that a run's config does not have."""
+
+
 def flatten(config: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
     """Dotted key → leaf value of a nested config; a list of mappings (e.g. a sum kernel's
     ``terms``) is entered with its indices as keys (``kernel.terms.1.weight``), other lists
@@ -45,13 +52,6 @@ def flatten(config: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
         else:
             leaves[dotted] = value
     return leaves
-
-
-LIST_MARK = "#"
-"""Marks a list index in a flattened key (dropped when the key is shown)."""
-
-ABSENT = "—"
-"""Shown for a list element's key that a run's config does not have."""
 
 
 def _compared(key: str) -> bool:
