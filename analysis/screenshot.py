@@ -18,6 +18,7 @@ import io
 import logging
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import quote
@@ -92,9 +93,16 @@ def colour_fraction(png: bytes, colour: tuple[int, ...], tolerance: float = 30.0
     return float((distance <= tolerance).mean())
 
 
-def wait_for_views(devtools: DevTools, timeout: float, settle: float = 1.5) -> ViewerState:
-    """Poll the viewer until it shows views on a recording with a ``time`` timeline and the
-    state has not changed for ``settle`` seconds.
+def wait_for_views(
+    devtools: DevTools,
+    timeout: float,
+    settle: float = 1.5,
+    ready: Callable[[ViewerState], bool] | None = None,
+) -> ViewerState:
+    """Poll the viewer until it shows views on a recording with a ``time`` timeline, the
+    state has not changed for ``settle`` seconds and ``ready(state)`` holds (when given: e.g.
+    every view a caller expects; on a starved CPU the viewer can pause for ``settle`` with
+    part of the blueprint's views shown).
 
     Raises:
         RuntimeError: the viewer panicked.
@@ -110,7 +118,7 @@ def wait_for_views(devtools: DevTools, timeout: float, settle: float = 1.5) -> V
         state = decode_viewer_state(base64.b64decode(encoded)) if encoded else None
         if state is None or state != last:
             last, stable_since = state, time.monotonic()
-        elif state.views and "time" in state.timelines:
+        elif state.views and "time" in state.timelines and (ready is None or ready(state)):
             if time.monotonic() - stable_since >= settle:
                 return state
         time.sleep(0.25)
@@ -123,6 +131,7 @@ def capture(
     size: tuple[int, int] = (1600, 900),
     timeout: float = 120.0,
     render_seconds: float = 3.0,
+    ready: Callable[[ViewerState], bool] | None = None,
 ) -> Screenshot:
     """Show ``recording`` in the web viewer and write the page as a PNG to ``out``.
 
@@ -132,6 +141,8 @@ def capture(
         size: the browser window (pixels, width × height).
         timeout: seconds allowed for the viewer to load the recording and show its views.
         render_seconds: extra seconds for the software renderer to draw the plots.
+        ready: what the viewer's state must show before the picture is taken (None: any
+            views on a ``time`` timeline, stable for 1.5 s; see :func:`wait_for_views`).
     """
     chromium = find_chromium()
     with (
@@ -143,7 +154,7 @@ def capture(
         started = time.monotonic()
         query = "&".join(f"url={quote(url, safe='')}" for url in file_urls)
         devtools.navigate(f"{viewer_url}/?{query}&persist=0", size)
-        state = wait_for_views(devtools, timeout)
+        state = wait_for_views(devtools, timeout, ready=ready)
         seconds = time.monotonic() - started
         time.sleep(render_seconds)
         png = devtools.screenshot()

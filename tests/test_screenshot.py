@@ -73,7 +73,15 @@ def viewer_processes() -> set[int]:
 def test_viewer_lands_on_the_blueprint_and_the_screenshot_is_not_blank(tmp_path: Path) -> None:
     recording = small_recording(tmp_path)
     before = viewer_processes()
-    shot = capture(recording, tmp_path / "viewer.png", size=(1200, 700), timeout=120)
+    # every view of the blueprint, 2 trials x 6 + 3 (under load the viewer can pause with
+    # part of them shown for longer than the settle time)
+    shot = capture(
+        recording,
+        tmp_path / "viewer.png",
+        size=(1200, 700),
+        timeout=120,
+        ready=lambda state: len(state.views) >= 2 * 6 + 3,
+    )
 
     state = shot.state
     assert state.current_timeline == "time"
