@@ -65,5 +65,60 @@ def test_without_dropout_stops_on_learning_rate() -> None:
 
 @pytest.mark.parametrize("key,value", [("window", 0), ("factor", 1.5), ("learning_rate", -1.0)])
 def test_bad_values_name_the_key(key: str, value: float) -> None:
-    with pytest.raises(ConfigError, match=f"optimizer.{key}"):
+    with pytest.raises(ConfigError, match=f"optimizer.schedule.{key}"):
         MonitoringSchedule(**{key: value})
+
+
+def weighted_average(values: list[float], ema: float) -> float:
+    """Σ α^(t−i) v_i / Σ α^(t−i): the EMA of ``values`` with its zero start divided out."""
+    weights = ema ** np.arange(len(values) - 1, -1, -1)
+    return float(np.dot(weights, values) / weights.sum())
+
+
+def test_bias_corrected_signal_is_the_weighted_average_of_the_ratios() -> None:
+    rng = np.random.default_rng(1)
+    costs = list(50 * np.exp(-np.arange(400) / 80) + rng.normal(0, 0.3, 400))
+    ema = 0.99
+    schedule = MonitoringSchedule(window=10_000, ema=ema, bias_correction=True)
+    got = [schedule.update(c).signal for c in costs][1:]
+    changes = np.diff(costs)
+    ratios, mean, variance = [], 0.0, 0.0
+    for t, change in enumerate(changes, start=1):
+        # Corrected moments from their definitions: the weighted mean of the changes and
+        # the zero-started variance recursion divided by 1 − α^t.
+        variance = ema * (variance + (1 - ema) * (change - mean) ** 2)
+        mean = ema * mean + (1 - ema) * change
+        assert mean / (1 - ema**t) == pytest.approx(weighted_average(list(changes[:t]), ema))
+        ratios.append(weighted_average(list(changes[:t]), ema) / math.sqrt(variance / (1 - ema**t)))
+    expected = [weighted_average(ratios[:t], ema) for t in range(1, len(ratios) + 1)]
+    np.testing.assert_allclose(got, expected, rtol=1e-9)
+
+
+def test_bias_corrected_first_signal_is_the_sign_of_the_change_over_root_ema() -> None:
+    schedule = MonitoringSchedule(ema=0.99, bias_correction=True)
+    schedule.update(10.0)
+    assert schedule.update(9.0).signal == pytest.approx(-1 / math.sqrt(0.99), rel=1e-12)
+    plain = MonitoringSchedule(ema=0.99)
+    plain.update(10.0)
+    # Without the correction: ratio (0.01·c)/√(0.99·0.01·c²) = 0.1/√0.99, then × (1 − α).
+    assert plain.update(9.0).signal == pytest.approx(-0.001 / math.sqrt(0.99), rel=1e-12)
+
+
+def test_bias_correction_removes_the_warm_up_reduction_of_a_falling_noisy_cost() -> None:
+    # Ĵ falls by 0.02 per step under noise of std 0.1: the ratio mean/std of the changes is
+    # about −0.14, above σ_s = 0.08 in size. Zero-started, s needs ~50 steps to reach it;
+    # with a short window the plain schedule reduces during that warm-up, the corrected one
+    # never does.
+    rng = np.random.default_rng(2)
+    costs = list(100 - 0.02 * np.arange(600) + rng.normal(0, 0.1, 600))
+    plain = MonitoringSchedule(window=20)
+    corrected = MonitoringSchedule(window=20, bias_correction=True)
+    plain_reductions = [j for j, c in enumerate(costs) if plain.update(c).reduced]
+    corrected_reductions = [j for j, c in enumerate(costs) if corrected.update(c).reduced]
+    assert plain_reductions and plain_reductions[0] == 20
+    assert corrected_reductions == []
+
+
+def test_bias_correction_must_be_a_bool() -> None:
+    with pytest.raises(ConfigError, match="optimizer.schedule.bias_correction"):
+        MonitoringSchedule(bias_correction="yes")  # type: ignore[arg-type]

@@ -25,9 +25,19 @@ class MonitoringSchedule:
     σ_s *= λ_s (floored at ``threshold_min``) and the window restarts (2.14). The
     optimisation stops when p_d < 0 or α_lr < α_lr_min (2.15 false). Defaults: Table 2.1.
 
+    The three EMAs start at 0, so for the first ~1/(1 − α_s) steps s is pulled towards 0
+    and |s| < σ_s counts towards a reduction before the cost has had time to move.
+    ``bias_correction=True`` (not in the thesis; off by default) divides each EMA by
+    1 − α_s^t after t cost changes, as Adam does its moments: the mean and variance of ΔĴ
+    and s become weighted averages of what was seen, ŝ_1 = sign(ΔĴ_1)/√α_s, and the
+    correction fades as t grows (1 − α_s^300 = 0.95 for α_s = 0.99).
+
     Attributes:
         dropout: p_d. dropout_step: Δp_d. learning_rate: α_lr. learning_rate_min: α_lr_min.
         ema: α_s. threshold: σ_s. threshold_min: floor of σ_s. window: n_s. factor: λ_s.
+        bias_correction: divide the EMAs by 1 − α_s^t (see above).
+        signal: s after the last update (corrected when ``bias_correction``), the value
+            compared with σ_s.
     """
 
     dropout: float = 0.25
@@ -39,7 +49,10 @@ class MonitoringSchedule:
     threshold_min: float = 0.01
     window: int = 200
     factor: float = 0.5
+    bias_correction: bool = False
     signal: float = field(default=0.0, init=False)
+    raw_signal: float = field(default=0.0, init=False)
+    changes_seen: int = field(default=0, init=False)
     mean_change: float = field(default=0.0, init=False)
     variance_change: float = field(default=0.0, init=False)
     steps_below: int = field(default=0, init=False)
@@ -58,7 +71,14 @@ class MonitoringSchedule:
         }
         for key, ok in checks.items():
             if not ok:
-                raise ConfigError(f"optimizer.{key} is out of range: {getattr(self, key)!r}")
+                raise ConfigError(
+                    f"optimizer.schedule.{key} is out of range: {getattr(self, key)!r}"
+                )
+        if not isinstance(self.bias_correction, bool):
+            raise ConfigError(
+                "optimizer.schedule.bias_correction must be true or false, "
+                f"got {self.bias_correction!r}"
+            )
 
     def update(self, cost: float) -> ScheduleEvent:
         """Feed Ĵ(θ_j); returns the decision taken after step j."""
@@ -73,10 +93,16 @@ class MonitoringSchedule:
         self.variance_change = a * (
             self.variance_change + (1.0 - a) * (change - previous_mean) ** 2
         )
+        self.changes_seen += 1
+        unbias = 1.0 - a**self.changes_seen if self.bias_correction else 1.0
+        # mean/√variance: the same 1/unbias divides both moments.
         ratio = (
-            self.mean_change / math.sqrt(self.variance_change) if self.variance_change > 0 else 0.0
+            self.mean_change / math.sqrt(self.variance_change * unbias)
+            if self.variance_change > 0
+            else 0.0
         )
-        self.signal = a * self.signal + (1.0 - a) * ratio
+        self.raw_signal = a * self.raw_signal + (1.0 - a) * ratio
+        self.signal = self.raw_signal / unbias
         self.steps_below = self.steps_below + 1 if abs(self.signal) < self.threshold else 0
         reduced = self.steps_below >= self.window
         if reduced:
