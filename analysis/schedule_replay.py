@@ -91,6 +91,9 @@ def trace_rows(run: Path, changes: dict[str, Any]) -> list[dict[str, object]]:
         trace = pd.read_csv(trace_file)
         if trace.empty:
             continue
+        missing = {"cost", "learning_rate"} - set(trace.columns)
+        if missing:
+            raise SystemExit(f"{trace_file}: no column {sorted(missing)} (not a Ĵ trace?)")
         costs = trace["cost"].tolist()
         reductions = trace.index[trace["learning_rate"].diff().fillna(0.0) < 0].tolist()
         row: dict[str, object] = {
@@ -100,7 +103,9 @@ def trace_rows(run: Path, changes: dict[str, Any]) -> list[dict[str, object]]:
             "recorded_reductions": " ".join(str(r) for r in reductions),
         }
         replayed = [j for j, (reduced, _, _) in enumerate(replay(costs, recorded)) if reduced]
-        if trace["horizon"].nunique() > 1 or replayed != reductions:
+        # a horizon curriculum starts a fresh schedule per stage (older traces: no column)
+        staged = "horizon" in trace and trace["horizon"].nunique() > 1
+        if staged or replayed != reductions:
             row["changed_schedule"] = "not reproduced"
         else:
             row.update(compare(costs, recorded, changed))

@@ -26,22 +26,26 @@ RECORDED = {
 }
 
 
-def write_run(root: Path, costs: list[float], reductions: list[int], horizon: int = 60) -> Path:
+def write_run(
+    root: Path, costs: list[float], reductions: list[int], horizon: int | None = 60
+) -> Path:
     """A run directory with one trace: α_lr halves after each step in ``reductions``."""
     (root / "optimization").mkdir(parents=True)
     (root / "config.yaml").write_text(yaml.safe_dump({"optimizer": {"schedule": RECORDED}}))
     steps = np.arange(len(costs))
     halvings = np.searchsorted(np.asarray(reductions), steps, side="right")
-    pd.DataFrame(
+    trace = pd.DataFrame(
         {
             "step": steps,
             "cost": costs,
             "dropout": 0.25 - 0.125 * halvings,
             "learning_rate": 0.01 * 0.5**halvings,
             "signal": 0.0,
-            "horizon": horizon,
         }
-    ).to_csv(root / "optimization" / "trial_01.csv", index=False)
+    )
+    if horizon is not None:  # runs from before the horizon curriculum have no such column
+        trace["horizon"] = horizon
+    trace.to_csv(root / "optimization" / "trial_01.csv", index=False)
     return root
 
 
@@ -73,6 +77,18 @@ def test_longer_window_holds_with_its_earliest_next_reduction(tmp_path: Path) ->
         200,
         300,
     )
+
+
+def test_a_trace_without_a_horizon_column_replays(tmp_path: Path) -> None:
+    run = write_run(tmp_path, [5.0] * 601, [200, 400, 600], horizon=None)
+    assert load([run], {"window": 100}).iloc[0]["changed_schedule"] == "reduces"
+
+
+def test_a_file_that_is_not_a_trace_fails_naming_it(tmp_path: Path) -> None:
+    run = flat_run(tmp_path)
+    (run / "optimization" / "trial_01.csv").write_text("step,signal\n0,0.0\n")
+    with pytest.raises(SystemExit, match="trial_01.csv: no column"):
+        load([run], {})
 
 
 def test_a_trace_the_recorded_schedule_does_not_reproduce_is_flagged(tmp_path: Path) -> None:
