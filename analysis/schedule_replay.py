@@ -64,11 +64,10 @@ def replay(costs: Sequence[float], options: dict[str, Any]) -> list[tuple[bool, 
 
 
 def compare(
-    costs: Sequence[float], recorded: dict[str, Any], changed: dict[str, Any]
+    before: Sequence[tuple[bool, bool, int]], after: Sequence[tuple[bool, bool, int]], window: int
 ) -> dict[str, object]:
-    """Where the changed schedule's decisions first differ from the recorded schedule's."""
-    before, after = replay(costs, recorded), replay(costs, changed)
-    window = int(changed.get("window", MonitoringSchedule.window))
+    """Where the changed schedule's decisions (``after``, its n_s ``window``) first differ
+    from the recorded schedule's (``before``), both from :func:`replay`."""
     for step, (old, new) in enumerate(zip(before, after, strict=True)):
         if old[:2] == new[:2]:
             continue
@@ -84,8 +83,12 @@ def compare(
 def trace_rows(run: Path, changes: dict[str, Any]) -> list[dict[str, object]]:
     """One record per optimisation trace of one run directory."""
     config = OmegaConf.to_container(OmegaConf.load(run / "config.yaml"), resolve=True)
-    recorded = dict(config["optimizer"]["schedule"])  # type: ignore[index]
+    schedule = config.get("optimizer", {}).get("schedule")  # type: ignore[union-attr]
+    if not isinstance(schedule, dict):
+        raise SystemExit(f"{run / 'config.yaml'}: no optimizer.schedule (not an MC-PILCO run?)")
+    recorded = dict(schedule)
     changed = recorded | changes
+    window = int(changed.get("window", MonitoringSchedule.window))
     rows = []
     for trace_file in sorted((run / "optimization").glob("trial_*.csv")):
         trace = pd.read_csv(trace_file)
@@ -102,13 +105,15 @@ def trace_rows(run: Path, changes: dict[str, Any]) -> list[dict[str, object]]:
             "steps": len(trace),
             "recorded_reductions": " ".join(str(r) for r in reductions),
         }
-        replayed = [j for j, (reduced, _, _) in enumerate(replay(costs, recorded)) if reduced]
+        before = replay(costs, recorded)
+        replayed = [j for j, (reduced, _, _) in enumerate(before) if reduced]
+        stops = [j for j, (_, stop, _) in enumerate(before) if stop]
         # a horizon curriculum starts a fresh schedule per stage (older traces: no column)
         staged = "horizon" in trace and trace["horizon"].nunique() > 1
-        if staged or replayed != reductions:
+        if staged or replayed != reductions or stops[:1] not in ([], [len(costs) - 1]):
             row["changed_schedule"] = "not reproduced"
         else:
-            row.update(compare(costs, recorded, changed))
+            row.update(compare(before, replay(costs, changed), window))
         rows.append(row)
     return rows
 

@@ -84,6 +84,19 @@ def test_a_trace_without_a_horizon_column_replays(tmp_path: Path) -> None:
     assert load([run], {"window": 100}).iloc[0]["changed_schedule"] == "reduces"
 
 
+def test_a_trace_that_runs_on_after_the_recorded_stop_is_not_reproduced(tmp_path: Path) -> None:
+    # The thesis schedule stops at its third reduction (step 600); 700 steps cannot be its.
+    run = write_run(tmp_path, [5.0] * 701, [200, 400, 600])
+    assert load([run], {"window": 100}).iloc[0]["changed_schedule"] == "not reproduced"
+
+
+def test_a_run_without_a_monitoring_schedule_fails_naming_it(tmp_path: Path) -> None:
+    run = flat_run(tmp_path)
+    (run / "config.yaml").write_text(yaml.safe_dump({"optimizer": {"max_steps": 10}}))
+    with pytest.raises(SystemExit, match="config.yaml: no optimizer.schedule"):
+        load([run], {})
+
+
 def test_a_file_that_is_not_a_trace_fails_naming_it(tmp_path: Path) -> None:
     run = flat_run(tmp_path)
     (run / "optimization" / "trial_01.csv").write_text("step,signal\n0,0.0\n")
