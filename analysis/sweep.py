@@ -6,10 +6,25 @@ from collections.abc import Iterable
 from pathlib import Path
 
 import pandas as pd
+from hydra import compose, initialize_config_dir
+from hydra.core.global_hydra import GlobalHydra
 from omegaconf import OmegaConf
 
-from analysis.study_tags import distinguished_labels
+from analysis.study_tags import distinguished_labels, flatten
 from analysis.thesis import configuration_label
+
+CONFIG_DIR = Path(__file__).resolve().parent.parent / "conf"
+
+
+def current_defaults() -> dict[str, object] | None:
+    """Today's ``conf/train.yaml`` composed without overrides, flattened; None inside a
+    running Hydra application (whose own config directory is not ours to replace)."""
+    if GlobalHydra.instance().is_initialized():
+        return None
+    with initialize_config_dir(version_base="1.3", config_dir=str(CONFIG_DIR)):
+        config = OmegaConf.to_container(compose("train"), resolve=True)
+    assert isinstance(config, dict)
+    return flatten(config)
 
 
 def load_sweep(paths: Iterable[Path]) -> tuple[pd.DataFrame, list[Path]]:
@@ -29,7 +44,9 @@ def load_sweep(paths: Iterable[Path]) -> tuple[pd.DataFrame, list[Path]]:
         configs[str(run)] = config
         summaries[str(run)] = pd.read_csv(run / "summary.csv")
     labels = distinguished_labels(
-        {run: configuration_label(config) for run, config in configs.items()}, configs
+        {run: configuration_label(config) for run, config in configs.items()},
+        configs,
+        current_defaults() if configs else None,
     )
     rows = []
     for run, summary in summaries.items():

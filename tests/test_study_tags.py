@@ -26,9 +26,11 @@ def composed(*overrides: str) -> dict[str, Any]:
     return config
 
 
-def labelled(configs: dict[str, dict[str, Any]]) -> dict[str, str]:
+def labelled(
+    configs: dict[str, dict[str, Any]], defaults: dict[str, Any] | None = None
+) -> dict[str, str]:
     labels = {run: configuration_label(config) for run, config in configs.items()}
-    return distinguished_labels(labels, configs)
+    return distinguished_labels(labels, configs, defaults)
 
 
 def test_seeds_and_machine_settings_do_not_make_another_experiment() -> None:
@@ -72,6 +74,29 @@ def test_a_key_an_older_config_lacks_is_not_a_difference() -> None:
     new, old = composed(), composed()
     del old["optimizer"]["horizon_stages"]
     assert labelled({"new": new, "old": old}) == {"new": BASE, "old": BASE}
+
+
+def test_a_newer_key_set_away_from_its_default_sets_its_runs_apart() -> None:
+    # Runs written before optimizer.schedule.bias_correction existed say nothing of it: a run
+    # that turns it on is told apart from them, and they show "—", not a guessed value.
+    older = composed("optimizer.schedule.window=100")
+    del older["optimizer"]["schedule"]["bias_correction"]
+    corrected = composed("optimizer.schedule.window=100", "optimizer.schedule.bias_correction=true")
+    plain = composed("optimizer.schedule.window=100")
+    defaults = flatten(composed())
+    key = "optimizer.schedule.bias_correction"
+    assert labelled({"older": older, "corrected": corrected, "plain": plain}, defaults) == {
+        "older": f"{BASE} [{key}=—]",
+        "corrected": f"{BASE} [{key}=True]",
+        "plain": f"{BASE} [{key}=False]",
+    }
+    # nobody set it away from today's default: older runs are not set apart
+    assert labelled({"older": older, "plain": plain}, defaults) == {"older": BASE, "plain": BASE}
+    # without defaults such keys are never compared
+    assert labelled({"older": older, "corrected": corrected}) == {
+        "older": BASE,
+        "corrected": BASE,
+    }
 
 
 def test_a_list_of_kernel_terms_is_compared_term_by_term() -> None:
