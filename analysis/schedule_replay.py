@@ -88,7 +88,7 @@ def trace_rows(run: Path, changes: dict[str, Any]) -> list[dict[str, object]]:
         raise SystemExit(f"{run / 'config.yaml'}: no optimizer.schedule (not an MC-PILCO run?)")
     recorded = dict(schedule)
     changed = recorded | changes
-    window = int(changed.get("window", MonitoringSchedule.window))
+    window = MonitoringSchedule(**changed).window  # validates the changed schedule too
     rows = []
     for trace_file in sorted((run / "optimization").glob("trial_*.csv")):
         trace = pd.read_csv(trace_file)
