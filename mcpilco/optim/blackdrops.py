@@ -8,7 +8,6 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-import cma
 import numpy as np
 import torch
 from torch.nn.utils import parameters_to_vector, vector_to_parameters
@@ -162,6 +161,8 @@ class BlackDropsSearch(PolicySearch):
         }
         if self.population is not None:
             options["popsize"] = self.population
+        import cma  # here, not at the top: it loads scipy.stats and matplotlib (~1.2 s)
+
         cma.fmin2(
             None,
             start.cpu().numpy(),
