@@ -4,6 +4,8 @@ figures on a synthetic case with known coverage."""
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -155,3 +157,18 @@ def test_report_names_and_calibrates_the_comparison_rows() -> None:
     assert table["coverage_p_median"] == 0.8
     timing = timing_table(trials).iloc[0]
     assert (timing["fit_seconds"], timing["optimization_seconds"]) == (2.0, 20.0)
+
+
+def test_building_an_experiment_does_not_load_cma() -> None:
+    """cma loads scipy.stats and matplotlib (~1.2 s of every runner's start): only a
+    Black-DROPS search that runs imports it."""
+    probe = (
+        "import sys, mcpilco.build, mcpilco.optim, runners.train; "
+        "print(sorted(m for m in ('cma', 'matplotlib.pyplot') if m in sys.modules))"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, timeout=300
+    )
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert result.stdout.strip() == "[]"
+
