@@ -171,4 +171,3 @@ def test_building_an_experiment_does_not_load_cma() -> None:
     )
     assert result.returncode == 0, result.stderr[-2000:]
     assert result.stdout.strip() == "[]"
-
