@@ -19,9 +19,10 @@ import sys
 from pathlib import Path
 
 import torch
-from omegaconf import OmegaConf
 
 from mcpilco.build import build
+from mcpilco.run_storage import RunDirectory
+from mcpilco.safe_config import load_run_config
 
 EPSILONS = (1e-1, 1e-2, 1e-4)
 RANKS = (100, 150, 200, 250)
@@ -29,19 +30,20 @@ RANKS = (100, 150, 200, 250)
 
 def probe(checkpoint: Path) -> str:
     run = checkpoint.parent.parent
-    cfg = OmegaConf.load(run / "config.yaml")
-    model = build(cfg).components.model
-    model.load_gp(torch.load(checkpoint / "model.pt", weights_only=True))
+    model = build(load_run_config(run)).components.model
+    trial = int(checkpoint.name.removeprefix("trial_"))
+    model.load_gp(RunDirectory(run).load_checkpoint(trial, "model"))
     gp = model.gp
     inputs = gp.train_inputs
     generator = torch.Generator().manual_seed(0)
-    test = inputs + 0.01 * inputs.std(0) * torch.randn(inputs.shape, generator=generator,
-                                                       dtype=inputs.dtype)
+    test = inputs + 0.01 * inputs.std(0) * torch.randn(
+        inputs.shape, generator=generator, dtype=inputs.dtype
+    )
     lines = []
     with torch.no_grad():
         gram = gp.kernel(inputs, inputs)  # [G, N, N]
         cross = gp.kernel(inputs, test)  # [G, N, M]
-        prior = gp.kernel(test, test).diagonal(dim1=-2, dim2=-1)  # [G, M]
+        prior = gp.kernel.diag(test)  # [G, M]
         for g, noise in enumerate(gp.noise_variance.tolist()):
             values, vectors = torch.linalg.eigh(gram[g])
             values, vectors = values.flip(0).clamp_min(0.0), vectors.flip(1)
@@ -55,9 +57,9 @@ def probe(checkpoint: Path) -> str:
                 f"{run.name} {checkpoint.name} output {g}: N {inputs.shape[0]}, "
                 f"k**/s_n^2 {prior_max / noise:.3g}, min exact variance / s_n^2 "
                 f"{float(exact.min()) / noise:.3g}; rank for bound <= eps s_n^2 "
-                + ", ".join(f"eps {e:g}: {r}" for e, r in zip(EPSILONS, needed))
+                + ", ".join(f"eps {e:g}: {r}" for e, r in zip(EPSILONS, needed, strict=True))
                 + "; largest error seen / s_n^2 at rank "
-                + ", ".join(f"{r}: {s:.2g}" for r, s in zip(RANKS, seen))
+                + ", ".join(f"{r}: {s:.2g}" for r, s in zip(RANKS, seen, strict=True))
             )
     return "\n".join(lines)
 
