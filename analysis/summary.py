@@ -5,6 +5,12 @@ is instantiated) and prints one Markdown row per run: kernel, model, seed, trial
 success, cumulative evaluation cost (2.17) per trial and wall time. Runs that are still
 going show the trials finished so far; a system without an evaluation cost or a success
 criterion shows "—" for them.
+
+The wall time is the sum of the trials' own times (``trial_seconds``: from the end of the
+trial before, or the start of the process that ran it, to its row), so the hours a
+stopped run waited before it was resumed are not counted. Rows written before that column
+existed count the time since the row before them (the exploration row: nothing), which
+is the same for a run that was never stopped.
 """
 
 from __future__ import annotations
@@ -36,7 +42,7 @@ def load_run(path: Path) -> dict[str, object]:
         "seed": config["seed"],
         "trials_done": int(summary["trial"].max()),
         "first_success": int(first.iloc[0]) if len(first) else None,
-        "wall_minutes": (summary["timestamp"].iloc[-1] - summary["timestamp"].iloc[0]) / 60,
+        "wall_minutes": wall_seconds(summary) / 60,
     }
     for _, row in summary.iterrows():
         trial = int(row["trial"])
@@ -44,6 +50,14 @@ def load_run(path: Path) -> dict[str, object]:
         success = row.get("success")
         record[f"success_T{trial}"] = None if success is None or pd.isna(success) else bool(success)
     return record
+
+
+def wall_seconds(summary: pd.DataFrame) -> float:
+    """A run's wall time (s) from its summary rows (see the module's docstring)."""
+    since_previous = summary["timestamp"].diff().fillna(0.0)
+    if "trial_seconds" not in summary.columns:
+        return float(since_previous.sum())
+    return float(summary["trial_seconds"].fillna(since_previous).sum())
 
 
 def load_runs(paths: Iterable[Path]) -> pd.DataFrame:

@@ -96,6 +96,7 @@ class TrialLoop:
             c.compile_steps,
         )
         self.trajectories: list[Trajectory] = []
+        self._trial_started = time.time()  # set again when the loop starts and per trial
 
     def run(
         self,
@@ -119,6 +120,7 @@ class TrialLoop:
         on_step: Callable[[int, StepInfo], None] | None,
         on_trial: Callable[[dict[str, Any]], None] | None,
     ) -> pd.DataFrame:
+        self._trial_started = time.time()
         first = self._restore()
         for observer in self.observers:
             observer.run_started(self.metadata, first - 1)
@@ -289,6 +291,9 @@ class TrialLoop:
         row: dict[str, Any] = {"trial": trial, **self.c.system.evaluate(trajectory), **extra}
         row["logging_seconds"] = row.get("logging_seconds", 0.0) + time.perf_counter() - start
         row["timestamp"] = time.time()
+        # this process's time on the trial: a resumed run's pause is in no trial's figure
+        row["trial_seconds"] = row["timestamp"] - self._trial_started
+        self._trial_started = row["timestamp"]
         self.storage.save_random_state(trial, self.streams.state())
         # The log first (the MCAP chunk is flushed here), the summary row last: the row marks
         # the trial finished, so a kill between the two re-runs the trial on resume and the

@@ -14,7 +14,7 @@ import pytest
 import torch
 from omegaconf import OmegaConf
 
-from analysis.summary import load_runs, markdown
+from analysis.summary import load_runs, markdown, wall_seconds
 from mcpilco.errors import NotPositiveDefiniteError
 from mcpilco.run_storage import RunDirectory
 from mcpilco.tracking import read_run_log
@@ -74,6 +74,9 @@ def test_smoke_run_writes_every_phase_and_artefact(tmp_path: Path, kernel: str) 
     assert {"eval_cost", "success"} | phases <= set(summary.columns)
     assert (summary[list(phases - {"fit_seconds", "optimization_seconds"})] > 0).all().all()
     assert summary[list(phases)].sum().sum() < elapsed  # the phases fit in the run's wall time
+    # each trial's phases fit in its own wall time, and those in the run's
+    assert (summary[list(phases)].fillna(0.0).sum(axis=1) <= summary["trial_seconds"]).all()
+    assert summary["trial_seconds"].sum() < elapsed
     config = OmegaConf.load(tmp_path / "config.yaml")
     assert config.optimizer.num_particles == 8 and config.kernel.terms[0]._target_.endswith(
         "PhysicalBasis"
@@ -140,9 +143,12 @@ def test_failed_model_fit_names_the_trial_and_keeps_finished_trials(
 def test_resume_continues_exactly_like_an_uninterrupted_run(tmp_path: Path) -> None:
     whole, part = tmp_path / "whole", tmp_path / "part"
     assert run_train(*TINY, f"hydra.run.dir={whole}").returncode == 0
+    start = time.perf_counter()
     first = run_train(*TINY, "num_trials=1", f"hydra.run.dir={part}")
     assert first.returncode == 0
+    time.sleep(1.0)  # the run stopped for a while before it was resumed
     resumed = run_train("num_trials=2", f"resume={part}", f"hydra.run.dir={tmp_path / 'other'}")
+    both_processes = time.perf_counter() - start - 1.0
     assert resumed.returncode == 0, resumed.stderr[-2000:]
     # the resumed trial is logged in the run directory's own train.log, after trial 1
     lines = (part / "train.log").read_text().splitlines()
@@ -154,6 +160,21 @@ def test_resume_continues_exactly_like_an_uninterrupted_run(tmp_path: Path) -> N
     assert got["trial"].tolist() == [0, 1, 2]
     timing = [column for column in got.columns if column.endswith("_seconds")]
     pd.testing.assert_frame_equal(got.drop(columns=timing), expected.drop(columns=timing))
+    # the wait before the resume (and the resumed process's start) is in no trial's time
+    stamps = pd.read_csv(part / "summary.csv")["timestamp"]
+    assert got.loc[2, "trial_seconds"] < stamps[2] - stamps[1] - 1.0
+    assert 0 < wall_seconds(pd.read_csv(part / "summary.csv")) < both_processes
+
+
+def test_wall_time_of_a_run_skips_the_pause_before_a_resume() -> None:
+    """Rows of a run whose last trial was resumed 100 000 s later; the first three were
+    written before ``trial_seconds`` existed (time since the row before counts)."""
+    rows = pd.DataFrame({"trial": [0, 1, 2, 3], "timestamp": [1000.0, 1100.0, 1250.0, 101250.0]})
+    assert wall_seconds(rows) == 100250.0  # no trial_seconds: nothing to tell the pause by
+    rows["trial_seconds"] = [float("nan"), float("nan"), float("nan"), 300.0]
+    assert wall_seconds(rows) == 100.0 + 150.0 + 300.0
+    rows["trial_seconds"] = [5.0, 90.0, 140.0, 300.0]
+    assert wall_seconds(rows) == 535.0
 
 
 def test_rerun_in_a_used_directory_continues_only_the_same_experiment(tmp_path: Path) -> None:
