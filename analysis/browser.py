@@ -143,12 +143,13 @@ class WebViewer:
 
         def read() -> None:  # keeps draining the pipe so that rerun never blocks on it
             assert self.process is not None and self.process.stdout is not None
-            for line in self.process.stdout:
-                match = re.search(rf"web-viewer at (http://{re.escape(LOCALHOST)}:\d+)", line)
-                if match and not found:
-                    found.append(match.group(1))
-                    ready.set()
-                log.debug("rerun: %s", line.rstrip())
+            with self.process.stdout as output:  # closed at its end (rerun stopped)
+                for line in output:
+                    match = re.search(rf"web-viewer at (http://{re.escape(LOCALHOST)}:\d+)", line)
+                    if match and not found:
+                        found.append(match.group(1))
+                        ready.set()
+                    log.debug("rerun: %s", line.rstrip())
             ready.set()
 
         threading.Thread(target=read, daemon=True).start()

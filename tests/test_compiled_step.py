@@ -44,7 +44,7 @@ def cost_and_gradient(
     result = rollout(PARTICLES, dropout, torch.Generator().manual_seed(seed))
     result.total_cost.backward()
     gradient = torch.cat([p.grad.flatten() for p in policy.parameters()])  # type: ignore[union-attr]
-    return float(result.total_cost), gradient
+    return float(result.total_cost.detach()), gradient
 
 
 @pytest.mark.parametrize(

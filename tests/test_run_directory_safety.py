@@ -87,6 +87,7 @@ def test_a_killed_process_does_not_leave_the_lock_stuck(tmp_path: Path) -> None:
     finally:
         holder.send_signal(signal.SIGKILL)
         holder.wait(timeout=60)
+        holder.stdout.close()  # type: ignore[union-attr]
     with RunDirectory(tmp_path).locked():  # free again, without any clean-up
         assert (tmp_path / RunDirectory.LOCK_FILE).read_text().startswith(f"pid {os.getpid()}")
 

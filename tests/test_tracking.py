@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import json
 import signal
 import subprocess
@@ -11,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 from mcap.reader import make_reader
 from omegaconf import OmegaConf
 from synthetic_log import write_log
@@ -276,3 +278,12 @@ def test_a_resumed_run_adds_a_recording_part_and_its_blueprint_keeps_the_earlier
     assert (tmp_path / "recording.rrd").stat().st_size == size  # the first part is untouched
     names, _ = max(blueprint_names(tmp_path / "recording.1.rrd"), key=lambda f: len(f[0]))
     assert {"trial 0", "trial 1", "trial 2"} <= names
+
+
+@pytest.mark.filterwarnings("error")  # an unclosed file warns (ResourceWarning) when freed
+def test_closing_the_log_closes_its_file_and_leaves_a_whole_mcap(tmp_path: Path) -> None:
+    write_log(tmp_path, trials=2)
+    gc.collect()  # a file left open by the logger would be freed (and warn) here
+    data = (tmp_path / "rollouts.mcap").read_bytes()
+    assert data[:8] == data[-8:] == b"\x89MCAP0\r\n"  # header and trailing magic on disk
+    assert len(read_run_log(tmp_path).trials) == 2

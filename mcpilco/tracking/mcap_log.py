@@ -14,7 +14,7 @@ import os
 import time
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 from mcap.writer import CompressionType, Writer
@@ -53,6 +53,7 @@ class McapLogger(TrialObserver):
         self.path = Path(run_dir) / filename
         self.max_particles = max_particles
         self._writer: Writer | None = None
+        self._stream: BinaryIO | None = None  # the file the writer writes (it never closes it)
         self._channels: dict[str, int] = {}
         self._last_time = 0
 
@@ -80,8 +81,8 @@ class McapLogger(TrialObserver):
                     missing,
                 )
         partial = self.path.with_name(f".{self.path.name}.partial")
-        stream = open(partial, "wb")  # noqa: SIM115 (closed by finish)
-        self._writer = Writer(stream, compression=CompressionType.ZSTD)
+        self._stream = open(partial, "wb")  # noqa: SIM115 (closed by close)
+        self._writer = Writer(self._stream, compression=CompressionType.ZSTD)
         self._writer.start(profile="protobuf", library="mcpilco")
         for topic, message_class in schema.TOPICS.items():
             schema_id = self._writer.register_schema(
@@ -215,6 +216,11 @@ class McapLogger(TrialObserver):
         self._writer.flush()  # closes the chunk: this trial survives a kill from here on
 
     def close(self) -> None:
-        if self._writer is not None:
-            self._writer.finish()
+        try:
+            if self._writer is not None:
+                self._writer.finish()
+        finally:
             self._writer = None
+            if self._stream is not None:
+                self._stream.close()  # flushes the footer's last bytes
+                self._stream = None
