@@ -9,13 +9,17 @@ criterion shows "—" for them.
 The wall time is the sum of the trials' own times (``trial_seconds``: from the end of the
 trial before, or the start of the process that ran it, to its row), so the hours a
 stopped run waited before it was resumed are not counted. Rows written before that column
-existed count the time since the row before them (the exploration row: nothing), which
-is the same for a run that was never stopped.
+existed count the time since the row before them (the exploration row: nothing) — exact
+for a run that was never stopped — except the first row after a resume (the run's
+``train.log`` says after which trials it was resumed), which counts the seconds of its
+recorded phases (GP fit, policy search, system rollout, logging): the start of its process
+is then left out.
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -23,6 +27,10 @@ import pandas as pd
 from omegaconf import OmegaConf
 
 from analysis.thesis import kernel_label
+
+RESUMED = re.compile(r"resuming .+ after trial (\d+)\s*$")
+"""A line of ``train.log`` (:meth:`mcpilco.trial_loop.TrialLoop._restore`)."""
+PHASES = ("fit_seconds", "optimization_seconds", "rollout_seconds", "logging_seconds")
 
 
 def load_run(path: Path) -> dict[str, object]:
@@ -42,7 +50,7 @@ def load_run(path: Path) -> dict[str, object]:
         "seed": config["seed"],
         "trials_done": int(summary["trial"].max()),
         "first_success": int(first.iloc[0]) if len(first) else None,
-        "wall_minutes": wall_seconds(summary) / 60,
+        "wall_minutes": wall_seconds(summary, resumed_after(path)) / 60,
     }
     for _, row in summary.iterrows():
         trial = int(row["trial"])
@@ -52,12 +60,26 @@ def load_run(path: Path) -> dict[str, object]:
     return record
 
 
-def wall_seconds(summary: pd.DataFrame) -> float:
-    """A run's wall time (s) from its summary rows (see the module's docstring)."""
+def resumed_after(run: Path) -> set[int]:
+    """The trials after which the run in ``run`` was resumed, from its ``train.log`` (the
+    trial loop's "resuming ... after trial K" lines; none without a log)."""
+    log = run / "train.log"
+    if not log.is_file():
+        return set()
+    with log.open(encoding="utf-8", errors="replace") as lines:
+        return {int(m.group(1)) for line in lines if (m := RESUMED.search(line))}
+
+
+def wall_seconds(summary: pd.DataFrame, resumed: Iterable[int] = ()) -> float:
+    """A run's wall time (s) from its summary rows, resumed after the trials ``resumed``
+    (see the module's docstring)."""
     since_previous = summary["timestamp"].diff().fillna(0.0)
-    if "trial_seconds" not in summary.columns:
-        return float(since_previous.sum())
-    return float(summary["trial_seconds"].fillna(since_previous).sum())
+    phases = summary[[c for c in PHASES if c in summary.columns]].fillna(0.0).sum(axis=1)
+    after_resume = summary["trial"].isin([k + 1 for k in resumed])
+    estimate = since_previous.where(~after_resume, phases)
+    if "trial_seconds" in summary.columns:
+        estimate = summary["trial_seconds"].fillna(estimate)
+    return float(estimate.sum())
 
 
 def load_runs(paths: Iterable[Path]) -> pd.DataFrame:

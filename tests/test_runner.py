@@ -14,7 +14,7 @@ import pytest
 import torch
 from omegaconf import OmegaConf
 
-from analysis.summary import load_runs, markdown, wall_seconds
+from analysis.summary import load_runs, markdown, resumed_after, wall_seconds
 from mcpilco.errors import NotPositiveDefiniteError
 from mcpilco.run_storage import RunDirectory
 from mcpilco.tracking import read_run_log
@@ -164,17 +164,37 @@ def test_resume_continues_exactly_like_an_uninterrupted_run(tmp_path: Path) -> N
     stamps = pd.read_csv(part / "summary.csv")["timestamp"]
     assert got.loc[2, "trial_seconds"] < stamps[2] - stamps[1] - 1.0
     assert 0 < wall_seconds(pd.read_csv(part / "summary.csv")) < both_processes
+    assert resumed_after(part) == {1}
+    assert 0 < load_runs([part]).loc[0, "wall_minutes"] * 60 < both_processes
 
 
-def test_wall_time_of_a_run_skips_the_pause_before_a_resume() -> None:
-    """Rows of a run whose last trial was resumed 100 000 s later; the first three were
-    written before ``trial_seconds`` existed (time since the row before counts)."""
-    rows = pd.DataFrame({"trial": [0, 1, 2, 3], "timestamp": [1000.0, 1100.0, 1250.0, 101250.0]})
-    assert wall_seconds(rows) == 100250.0  # no trial_seconds: nothing to tell the pause by
-    rows["trial_seconds"] = [float("nan"), float("nan"), float("nan"), 300.0]
-    assert wall_seconds(rows) == 100.0 + 150.0 + 300.0
+def test_wall_time_of_a_run_skips_the_pause_before_a_resume(tmp_path: Path) -> None:
+    """Rows of a run resumed after trial 2, 100 000 s later; the first rows were written
+    before ``trial_seconds`` existed (time since the row before counts, or after a resume
+    the row's recorded phases)."""
+    nan = float("nan")
+    rows = pd.DataFrame(
+        {
+            "trial": [0, 1, 2, 3],
+            "timestamp": [1000.0, 1100.0, 1250.0, 101250.0],
+            "fit_seconds": [nan, 2.0, 3.0, 4.0],
+            "optimization_seconds": [nan, 90.0, 140.0, 280.0],
+            "rollout_seconds": [0.5, 0.5, 0.5, 0.5],
+        }
+    )
+    assert wall_seconds(rows) == 100250.0  # nothing tells the pause
+    assert wall_seconds(rows, resumed=[2]) == 100.0 + 150.0 + 284.5
+    rows["trial_seconds"] = [nan, nan, nan, 300.0]
+    assert wall_seconds(rows, resumed=[2]) == wall_seconds(rows) == 100.0 + 150.0 + 300.0
     rows["trial_seconds"] = [5.0, 90.0, 140.0, 300.0]
     assert wall_seconds(rows) == 535.0
+    # the resumes as the run's train.log records them
+    (tmp_path / "train.log").write_text(
+        "[2026-11-22 08:00:00,000][mcpilco.train][INFO] - run directory: /r\n"
+        "[2026-12-06 11:38:38,352][mcpilco.trial_loop][INFO] - resuming /r after trial 2\n"
+        "[2026-12-06 11:50:58,210][mcpilco.trial_loop][INFO] - trial 3: {'trial': 3}\n"
+    )
+    assert resumed_after(tmp_path) == {2} and resumed_after(tmp_path / "none") == set()
 
 
 def test_rerun_in_a_used_directory_continues_only_the_same_experiment(tmp_path: Path) -> None:
