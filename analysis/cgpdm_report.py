@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import logging
 from pathlib import Path
+from zipfile import BadZipFile
 
 import matplotlib
 
@@ -26,33 +27,51 @@ import pandas as pd  # noqa: E402
 from scipy import stats  # noqa: E402
 
 from analysis.thesis import REAL_CLOTH_ERRORS  # noqa: E402
+from mcpilco.errors import RunFileError  # noqa: E402
+from mcpilco.run_contract import CGPDM as CGPDM_KIND  # noqa: E402
+from mcpilco.run_contract import find_runs  # noqa: E402
+from mcpilco.run_storage import RunDirectory  # noqa: E402
 
 log = logging.getLogger("mcpilco.cgpdm_report")
 MODEL_COLUMNS = ["range_deg", "variant", "num_train", "draw"]
+UNREADABLE = (RunFileError, OSError, ValueError, KeyError, TypeError, EOFError, BadZipFile)
+"""What a damaged summary or ``predictions.npz`` raises (the run is left out)."""
 
 
 def load_models(paths: list[Path]) -> tuple[pd.DataFrame, list[Path]]:
     """One row per trained model (its mean over the test sequences); and the run
-    directories left out (failed or incomplete)."""
+    directories left out (failed, incomplete or unreadable: each named in a warning).
+    Directories of other kinds of run are skipped with a warning."""
     rows, left_out = [], []
-    for root in paths:
-        for summary in sorted(root.rglob("summary.csv")):
-            run = summary.parent
-            table = pd.read_csv(summary)
-            if "error_m" not in table:
-                continue  # not a CGPDM run (e.g. mode=generate)
-            if (run / "failed.txt").exists():
-                left_out.append(run)
-                continue
+    for run in find_runs(paths, CGPDM_KIND):
+        if (run / "failed.txt").exists():
+            left_out.append(run)
+            continue
+        try:
+            table = RunDirectory(run).summary()
             row = table.groupby(MODEL_COLUMNS, as_index=False).agg(
                 error_m=("error_m", "mean"), still_error_m=("still_error_m", "mean"),
                 rigid_error_m=("rigid_error_m", "mean"), fit_seconds=("fit_seconds", "first"),
                 predict_seconds=("predict_seconds", "first"), test_sequences=("error_m", "size"),
             )  # fmt: skip
-            row["run"] = str(run)
             row["left_region"] = left_training_region(run / "predictions.npz")
-            rows.append(row)
-        for failed in root.rglob("failed.txt"):
+        except (
+            RunFileError,
+            OSError,
+            ValueError,
+            KeyError,
+            TypeError,
+            EOFError,
+            BadZipFile,
+        ) as error:
+            reason = str(error).strip().splitlines()[0] if str(error).strip() else ""
+            log.warning("%s: unreadable (%s: %s)", run, type(error).__name__, reason[:200])
+            left_out.append(run)
+            continue
+        row["run"] = str(run)
+        rows.append(row)
+    for root in paths:
+        for failed in Path(root).rglob("failed.txt"):
             if failed.parent not in left_out and not (failed.parent / "summary.csv").exists():
                 left_out.append(failed.parent)
     models = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=MODEL_COLUMNS)

@@ -26,6 +26,8 @@ import pandas as pd  # noqa: E402
 from omegaconf import OmegaConf  # noqa: E402
 
 from analysis.thesis import INVERSE_DYNAMICS_NMSE, kernel_label  # noqa: E402
+from mcpilco.run_contract import CONTROL, find_runs  # noqa: E402
+from mcpilco.run_storage import RunDirectory  # noqa: E402
 
 
 def model_table(model_dirs: list[Path]) -> pd.DataFrame:
@@ -83,14 +85,15 @@ def error_boxplots(model_dirs: list[Path], labels: list[str], out: Path) -> None
 
 
 def run_dirs(paths: list[Path]) -> list[Path]:
-    return sorted({p.parent for path in paths for p in Path(path).rglob("summary.csv")})
+    """The control run directories under ``paths`` (other kinds left out with a warning)."""
+    return find_runs(paths, CONTROL)
 
 
 def tracking_table(runs: list[Path]) -> pd.DataFrame:
     rows = []
     for run in runs:
         config = OmegaConf.load(run / "config.yaml")
-        summary = pd.read_csv(run / "summary.csv")
+        summary = RunDirectory(run).summary()
         steady = summary[
             [c for c in summary.columns if c.startswith("steady_state_max_error_deg_")]
         ]

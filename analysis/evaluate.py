@@ -35,9 +35,10 @@ from tqdm import tqdm
 
 from mcpilco.build import Experiment, build
 from mcpilco.controller import PolicyController
-from mcpilco.errors import CheckpointError, ConfigError
+from mcpilco.errors import CheckpointError, ConfigError, ForeignRunError, RunFileError
 from mcpilco.optim.policy_optimizer import frozen
 from mcpilco.optim.rollout import ParticleRollout
+from mcpilco.run_contract import KINDS, READERS, TRAIN, recorded_kind
 from mcpilco.run_storage import RunDirectory
 from mcpilco.safe_config import load_run_config
 from mcpilco.trajectory import Trajectory
@@ -50,8 +51,17 @@ def load_trial(run_dir: Path, trial: int | None) -> tuple[int, Experiment]:
     GPs loaded (default: the last finished trial); a one-line exit on a trial it lacks."""
     if not (run_dir / "summary.csv").is_file():
         raise SystemExit(f"{run_dir} holds no summary.csv (not a run directory?)")
-    storage = RunDirectory(run_dir)
-    last = storage.finished_trials()
+    try:
+        kind = recorded_kind(run_dir, KINDS)
+        if kind not in (TRAIN.name, None):
+            raise SystemExit(
+                f"{run_dir} holds a {kind} run, not a training run (read by "
+                f"{READERS.get(str(kind), 'no mcpilco command')})"
+            )
+        storage = RunDirectory(run_dir)
+        last = storage.finished_trials()
+    except (ForeignRunError, RunFileError) as error:
+        raise SystemExit(str(error)) from None
     trial = last if trial is None else trial
     if not 1 <= trial <= last:
         raise SystemExit(f"--trial={trial}: {run_dir} has learned trials 1..{last}")

@@ -26,26 +26,30 @@ from mcpilco.tracking.reader import RunLog  # noqa: E402
 log = logging.getLogger("mcpilco.plot_run")
 
 
-def state_names(run_log: RunLog, dim: int) -> list[str]:
-    """The logged system's state labels (from the config in the log's metadata)."""
+def state_names(run_log: RunLog, dim: int, run_dir: Path | None = None) -> list[str]:
+    """The logged system's state labels (from the config in the log's metadata; nothing
+    inside ``run_dir``, the directory read, is imported)."""
     names: tuple[str, ...] = ()
     if run_log.metadata and "config" in run_log.metadata[0]:
         try:  # the class's labels; nothing is instantiated (see mcpilco.safe_config)
-            config = config_from_text(run_log.metadata[0]["config"], "the log's metadata")
-            names = getattr(locate_class(config.system._target_), "state_names", ())
+            config = config_from_text(run_log.metadata[0]["config"], "the log's metadata", run_dir)
+            cls = locate_class(config.system._target_, "system._target_", run_dir)
+            names = getattr(cls, "state_names", ())
         except (ConfigError, AttributeError) as error:
             log.warning("state labels unavailable (%s)", error)
     return list(names) if len(names) == dim else [f"x{i}" for i in range(dim)]
 
 
-def plot_trial(run_log: RunLog, trial: int, max_particles: int = 100) -> plt.Figure:
+def plot_trial(
+    run_log: RunLog, trial: int, max_particles: int = 100, run_dir: Path | None = None
+) -> plt.Figure:
     rollout = run_log.rollout(trial)
     particles = run_log.particles[trial]
     times = rollout["time"].to_numpy()
     states = particles["states"]  # [T+1, M, d_x]
     dim = states.shape[2]
     figure, axes = plt.subplots(1, dim + 1, figsize=(3.2 * (dim + 1), 3.0), constrained_layout=True)
-    names = state_names(run_log, dim)
+    names = state_names(run_log, dim, run_dir)
     for i in range(dim):
         ax = axes[i]
         ax.plot(times, states[:, :max_particles, i], color="0.6", linewidth=0.4, alpha=0.5)
@@ -81,7 +85,7 @@ def main() -> None:
             f"trial {trial} not logged; trials with particles: {sorted(run_log.particles)}"
         )
     out = args.out or args.run_dir / f"particles_trial_{trial}.png"
-    figure = plot_trial(run_log, trial, args.max_particles)
+    figure = plot_trial(run_log, trial, args.max_particles, args.run_dir)
     figure.savefig(out, dpi=110)
     print(out)  # noqa: T201
 

@@ -19,6 +19,7 @@ is then left out.
 from __future__ import annotations
 
 import argparse
+import logging
 import re
 from collections.abc import Iterable
 from pathlib import Path
@@ -27,6 +28,11 @@ import pandas as pd
 from omegaconf import OmegaConf
 
 from analysis.thesis import kernel_label
+from mcpilco.errors import RunFileError
+from mcpilco.run_contract import TRAIN, find_runs
+from mcpilco.run_storage import RunDirectory
+
+log = logging.getLogger("mcpilco.summary")
 
 RESUMED = re.compile(r"resuming .+ after trial (\d+)\s*$")
 """A line of ``train.log`` (:meth:`mcpilco.trial_loop.TrialLoop._restore`)."""
@@ -35,7 +41,7 @@ PHASES = ("fit_seconds", "optimization_seconds", "rollout_seconds", "logging_sec
 
 def load_run(path: Path) -> dict[str, object]:
     """One run as a flat record (config facts + per-trial eval cost and success)."""
-    summary = pd.read_csv(path / "summary.csv")
+    summary = RunDirectory(path).summary()
     config = OmegaConf.to_container(OmegaConf.load(path / "config.yaml"))
     assert isinstance(config, dict)
     if "success" in summary.columns:
@@ -83,9 +89,17 @@ def wall_seconds(summary: pd.DataFrame, resumed: Iterable[int] = ()) -> float:
 
 
 def load_runs(paths: Iterable[Path]) -> pd.DataFrame:
-    """Every run directory (one holding ``summary.csv``) under the given paths."""
-    runs = sorted({p.parent for path in paths for p in Path(path).rglob("summary.csv")})
-    return pd.DataFrame([load_run(run) for run in runs])
+    """Every training run directory (one holding ``summary.csv``) under the given paths;
+    runs of another kind, and runs whose files are unreadable, are left out with a
+    one-line warning."""
+    records = []
+    for run in find_runs(list(paths), TRAIN):
+        try:
+            records.append(load_run(run))
+        except (RunFileError, OSError, ValueError, KeyError, TypeError) as error:
+            reason = str(error).strip().splitlines()[0] if str(error).strip() else ""
+            log.warning("%s: unreadable (%s: %s); left out", run, type(error).__name__, reason)
+    return pd.DataFrame(records)
 
 
 def markdown(table: pd.DataFrame) -> str:
@@ -117,7 +131,10 @@ def main() -> None:
     parser.add_argument("paths", nargs="+", type=Path, help="run directories or parents")
     parser.add_argument("--csv", type=Path, help="also write the flat table here")
     args = parser.parse_args()
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(message)s")
     table = load_runs(args.paths)
+    if table.empty:
+        raise SystemExit(f"no training run under {', '.join(map(str, args.paths))}")
     if args.csv:
         table.to_csv(args.csv, index=False)
     print(markdown(table))  # noqa: T201

@@ -14,6 +14,7 @@ from hydra.errors import InstantiationException
 from hydra.utils import instantiate
 from omegaconf import DictConfig
 
+from mcpilco.checks import fits_in_memory
 from mcpilco.errors import ConfigError
 from mcpilco.optim.rollout import ParticleRollout
 from mcpilco.safe_config import check_targets
@@ -106,6 +107,32 @@ def exploration_factory(made: Any, system: MechanicalSystem) -> Any:
     return bind_if_accepted(partial(made, action_dim=system.action_dim), "system", system)
 
 
+def check_memory(cfg: DictConfig, system: MechanicalSystem) -> None:
+    """Refuse, before the policy and the particles are allocated, a run whose first
+    policy search cannot fit in memory: the system's trajectories, the policy's basis
+    functions, and a rollout of M particles over T steps that keeps, per step, each
+    particle's kernel vector against the n = T exploration samples, its basis
+    activations and its state (for the backward pass), in float64."""
+    steps = system.num_steps
+    dims = system.state_dim + system.action_dim
+    fits_in_memory(
+        "system (trial duration / dt)",
+        (cfg.num_trials + 1) * (steps + 1) * 3 * dims * 8.0,
+        f"the trajectories of {steps} steps per trial",
+    )
+    basis = cfg.get("policy", {}).get("num_basis")
+    particles = cfg.get("optimizer", {}).get("num_particles")
+    if isinstance(basis, int) and basis > 0:
+        fits_in_memory("policy.num_basis", 4.0 * basis * dims * 8, f"{basis} basis functions")
+    if isinstance(particles, int) and particles > 0:
+        per_particle = system.state_dim * steps + (basis or 0) + 4 * dims
+        fits_in_memory(
+            "optimizer.num_particles, policy.num_basis, system",
+            2.0 * steps * particles * per_particle * 8,
+            f"a rollout of {particles} particles over {steps} steps",
+        )
+
+
 def build(cfg: DictConfig) -> Experiment:
     """Instantiate every component (all validation happens here, before any work). Every
     ``_target_`` is checked first (:mod:`mcpilco.safe_config`): only subclasses of
@@ -116,6 +143,7 @@ def build(cfg: DictConfig) -> Experiment:
         torch.set_num_threads(cfg.threads)
     streams = RandomStreams.from_seed(cfg.seed, device)
     system = make(cfg.system)
+    check_memory(cfg, system)
     model = make(cfg.model, system=system, kernel=make(cfg.kernel))
     model.new_gp()  # builds a kernel now, so kernel errors surface before any work
     policy_factory = bind_if_accepted(make(cfg.policy), "angle_columns", model.policy_angle_columns)

@@ -28,5 +28,20 @@ class RunInUseError(RuntimeError):
     """Another live process holds the run directory's lock."""
 
 
+class ForeignRunError(ConfigError):
+    """A directory holds another kind of run or another experiment: it is refused and
+    left untouched (no failure mark, no log)."""
+
+
+class RunFileError(ValueError):
+    """A file of a run directory (``summary.csv``, ``run.json``) is corrupt or
+    inconsistent; the message names it."""
+
+
+class Terminated(KeyboardInterrupt):
+    """The process received SIGTERM (a scheduler's preemption or time limit): handled
+    like Ctrl-C, finished units are kept."""
+
+
 class CheckpointError(ValueError):
     """A checkpoint file is missing, corrupt, or holds more than tensors."""

@@ -1,7 +1,10 @@
 """A run directory on disk: resolved config, per-trial summary, data and checkpoints.
 
-Everything of a trial is written as soon as the trial ends, each file atomically (written
-beside its final name, then renamed), so a crash or Ctrl-C never loses a finished trial.
+Everything of a unit (a trial, a reference seed, a test sequence) is written as soon as it
+ends, each file atomically (written beside its final name, then renamed), so a crash or
+Ctrl-C never loses a finished unit; ``summary.csv`` holds one row per finished unit, keyed
+(:meth:`RunDirectory.append_summary`). What a rerun of a directory means is decided once, for
+every runner, in :mod:`mcpilco.run_contract`.
 Checkpoints hold state dicts of tensors only and are read with ``weights_only=True``.
 A live run holds an advisory lock on its directory (:meth:`RunDirectory.locked`).
 """
@@ -23,7 +26,7 @@ import numpy as np
 import pandas as pd
 import torch
 
-from mcpilco.errors import CheckpointError, RunInUseError
+from mcpilco.errors import CheckpointError, RunFileError, RunInUseError
 from mcpilco.trajectory import Trajectory
 
 try:
@@ -125,24 +128,46 @@ class RunDirectory:
 
     def finished_trials(self) -> int:
         """Number of the last trial whose files are all on disk (−1 when none)."""
-        path = self.path / "summary.csv"
-        if not path.exists():
-            return -1
-        trials = pd.read_csv(path)["trial"].tolist()
+        trials = self.finished_units("trial")
         if trials != list(range(len(trials))):
-            raise ValueError(f"{path}: trials {trials} are not 0, 1, 2, ...")
+            raise RunFileError(f"{self.path / 'summary.csv'}: trials {trials} are not 0, 1, 2, ...")
         return len(trials) - 1
 
-    def append_summary(self, row: Mapping[str, Any]) -> pd.DataFrame:
-        """Add one trial's row to ``summary.csv`` and return the whole table."""
+    def finished_units(self, key: str) -> list[Any]:
+        """The ``key`` column of ``summary.csv``: the finished units (trials, reference
+        seeds, sequences), in order; empty when there is no summary yet."""
+        if not (self.path / "summary.csv").exists():
+            return []
+        table = self.summary()
+        if key not in table.columns:
+            raise RunFileError(f"{self.path / 'summary.csv'} has no {key!r} column")
+        return table[key].tolist()
+
+    def append_summary(self, row: Mapping[str, Any], key: str = "trial") -> pd.DataFrame:
+        """Add one unit's row to ``summary.csv`` and return the whole table. A row whose
+        ``key`` is already there replaces it (a unit is never listed twice)."""
         path = self.path / "summary.csv"
-        table = pd.read_csv(path) if path.exists() else pd.DataFrame()
+        table = self.summary() if path.exists() else pd.DataFrame()
+        if key in table.columns:
+            table = table[table[key] != row[key]]
         table = pd.concat([table, pd.DataFrame([dict(row)])], ignore_index=True)
         self._write(path, lambda p: table.to_csv(p, index=False))
         return table
 
     def summary(self) -> pd.DataFrame:
-        return pd.read_csv(self.path / "summary.csv")
+        """``summary.csv``; :class:`RunFileError` (one line naming the file) when it is
+        missing, empty or not a table."""
+        path = self.path / "summary.csv"
+        try:
+            return pd.read_csv(path)
+        except FileNotFoundError:
+            raise RunFileError(f"{path} does not exist (no unit finished yet)") from None
+        except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError) as error:
+            reason = str(error).strip().splitlines()[0] if str(error).strip() else "empty"
+            raise RunFileError(
+                f"{path} is not a readable table ({reason}); delete it to redo the run's "
+                "units, or pass overwrite=true"
+            ) from None
 
     FAILURE_FILE = "failed.txt"
 

@@ -14,6 +14,7 @@ import torch
 from torch import nn
 
 from mcpilco.calibration import calibration
+from mcpilco.checks import require_finite
 from mcpilco.controller import PolicyController
 from mcpilco.errors import NonFiniteError, NotPositiveDefiniteError, SimulationError
 from mcpilco.estimators.base import StateEstimator
@@ -26,7 +27,6 @@ from mcpilco.policies.rbf import SquashedRBFPolicy
 from mcpilco.run_storage import RunDirectory
 from mcpilco.seeding import RandomStreams
 from mcpilco.systems.base import Controller, MechanicalSystem
-from mcpilco.systems.checks import require_finite
 from mcpilco.tracking.base import TrialObserver
 from mcpilco.trajectory import Trajectory
 

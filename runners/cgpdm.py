@@ -6,42 +6,51 @@ range ``data.range_deg`` and predicts its test sequences. The data set is simula
 kept in ``data.dir`` (or read from ``data.path``, a file of ``mode=generate``, or from the
 authors' CSV layout in ``data.csv_dir``). The run directory holds ``config.yaml``,
 ``summary.csv`` (one row per test sequence), ``model.pt`` (state dict), ``predictions.npz``,
-``training_set.json`` and ``rollouts.mcap``; a run whose summary is complete is not redone,
-one with ``model.pt`` only is evaluated without training again.
+``training.json``, ``training_set.json`` and ``rollouts.mcap``. The run-directory contract
+(:mod:`mcpilco.run_contract`) holds: a rerun of the same config skips the test sequences in
+the summary (and training, once ``model.pt`` is there); another config is refused.
 
 ``mode=generate`` writes the data sets of ``data.ranges`` into the run directory
 (``datasets/*.npz`` + ``.json``, every sequence in ``rollouts.mcap``) and checks the
-simulation's stability over all of them.
+simulation's stability over all of them (:mod:`runners.cloth_data`).
 """
 
 from __future__ import annotations
 
 import json
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import hydra
 import numpy as np
 import torch
-from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
 from mcpilco.build import make, resolve_device
 from mcpilco.cloth import ClothDataset, ClothParameters, ClothSimulation, Excitation
 from mcpilco.cloth.dataset import read_csv_sequences
 from mcpilco.cloth.store import DatasetKey, check_compatible, load_or_generate
-from mcpilco.errors import ConfigError
+from mcpilco.errors import RunFileError
 from mcpilco.latent import CGPDM
 from mcpilco.latent.evaluation import point_distance_per_step
 from mcpilco.latent.study import check_sizes, evaluate, score, split, train, training_data
 from mcpilco.latent.training import CGPDMTraining
+from mcpilco.run_contract import CGPDM as CGPDM_KIND
+from mcpilco.run_contract import CLOTH_DATASETS, RunContract
 from mcpilco.run_storage import RunDirectory, load_tensors
 from mcpilco.safe_config import check_targets
 from mcpilco.tracking import McapLogger
 from mcpilco.tracking.metadata import run_metadata
-from runners.cloth_data import excitation_from, generate_datasets, sequence_trajectory
-from runners.failures import run_reporting_failures
+from runners.cgpdm_checks import check_cgpdm_config, check_training_size
+from runners.cloth_data import (
+    excitation_from,
+    generate_datasets,
+    prepare_generation,
+    sequence_trajectory,
+)
+from runners.job import Runner, run_job
 from runners.options import rerun_mode
 
 CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
@@ -65,93 +74,100 @@ def load_dataset(cfg: DictConfig, cloth: ClothParameters, excitation: Excitation
     return dataset
 
 
-def train_and_evaluate(cfg: DictConfig) -> None:
-    """Build and check everything first, then data, training (or the saved model), test."""
+@dataclass
+class CGPDMSetup:
+    """What a CGPDM run is built from (checked, before any simulation or training)."""
+
+    cloth: ClothParameters
+    excitation: Excitation
+    model: CGPDM
+    fit: CGPDMTraining
+    device: torch.device
+
+
+def prepare(cfg: DictConfig) -> CGPDMSetup:
+    """Check every key and build the cloth, excitation, model and training schedule."""
     check_targets(cfg)
+    check_cgpdm_config(cfg)
     if cfg.get("threads") is not None:
         torch.set_num_threads(int(cfg.threads))
     cloth: ClothParameters = make(cfg.cloth)
     excitation = excitation_from(cfg)
     model: CGPDM = make(cfg.cgpdm)
+    model.check_kernels(control_dim=6)
     rerun_mode(cfg)
     device = resolve_device(str(cfg.device))
     fit = CGPDMTraining(**OmegaConf.to_container(cfg.train))  # type: ignore[arg-type]
-    if cfg.data.csv_dir is None and not 0 < float(cfg.data.range_deg) <= 360:
-        raise ConfigError(f"data.range_deg={cfg.data.range_deg!r} must be in (0, 360]")
     if cfg.data.csv_dir is None and cfg.data.path is None:  # checked before simulating
         check_sizes(cfg.data.num_sequences, cfg.data.num_test, cfg.data.num_train)
         model.check_observation_dim(ClothSimulation.observation_dim)
-    run_dir = Path(HydraConfig.get().runtime.output_dir)
-    storage = RunDirectory(run_dir)
-    with storage.locked():
-        summary = run_dir / "summary.csv"
-        if summary.exists() and len(storage.summary()) == cfg.data.num_test:
-            log.info("%s is complete; nothing to do", run_dir)
-            return
-        dataset = load_dataset(cfg, cloth, excitation)
-        train_rows, test_rows = split(dataset, cfg.data.num_test, cfg.data.num_train, cfg.seed)
-        model.check_observation_dim(dataset.observations.shape[-1])
-        training, test = dataset.subset(train_rows), dataset.subset(test_rows)
-        config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
-        storage.write_text("config.yaml", config_yaml)
-        storage.clear_failure()
-        summary.unlink(missing_ok=True)
-        storage.write_text(
-            "training_set.json",
-            json.dumps(
-                {
-                    "draw": cfg.seed,
-                    "train": training.indices.tolist(),
-                    "test": test.indices.tolist(),
-                }
-            ),
-        )
-        saved = run_dir / "model.pt"
-        model.set_data(training_data(training, device))
-        if saved.exists():
-            model.load_state_dict(load_tensors(saved))
-            loss, seconds = float(model.negative_log_marginal_likelihood().detach()), float("nan")
-            log.info("loaded the trained model from %s", saved)
-        else:
-            trace, seconds = train(model, fit)
-            loss = trace[-1]
-            storage.save_tensors("model.pt", model.state_dict())
-            storage.write_text(
-                "training_trace.csv",
-                "step,loss\n" + "".join(f"{k + 1},{value!r}\n" for k, value in enumerate(trace)),
-            )
-        log.info(
-            "trained on %d sequences (%d points) in %.1f s, loss %.4f",
-            len(train_rows),
-            training.observations.shape[0] * training.observations.shape[1],
-            seconds,
-            loss,
-        )
-        latent, predicted, predict_seconds = evaluate(model, test)
-        errors = score(test, predicted)
-        storage.save_arrays(
-            "predictions.npz",
-            {
-                "latent": latent,
-                "predicted": predicted,
-                "true": test.observations,
-                "controls": test.controls,
-                "training_latent": model.sequences().detach().cpu().numpy(),
-            },
-        )
-        log_test_sequences(
-            cfg,
-            run_dir,
-            config_yaml,
-            test,
-            latent,
-            predicted,
-            errors,
-            seconds,
-            predict_seconds,
-            loss,
-            storage,
-        )
+    check_training_size(cfg)
+    return CGPDMSetup(cloth, excitation, model, fit, device)
+
+
+def train_model(setup: CGPDMSetup, storage: RunDirectory) -> tuple[float, float]:
+    """Train the model whose data are set, or load the one trained here before (a run
+    killed after training). The model's record is ``training_trace.csv``,
+    ``training.json`` (seconds, loss) and ``model.pt``, written in that order: ``model.pt``
+    marks it complete. Returns (training seconds, final loss)."""
+    model, saved = setup.model, storage.path / "model.pt"
+    if saved.exists():
+        model.load_state_dict(load_tensors(saved))
+        loss = float(model.negative_log_marginal_likelihood().detach())
+        record = storage.path / "training.json"
+        seconds = json.loads(record.read_text())["seconds"] if record.is_file() else float("nan")
+        log.info("loaded the model trained here before (%s)", saved)
+        return float(seconds), loss
+    trace, seconds = train(setup.model, setup.fit)
+    storage.write_text(
+        "training_trace.csv",
+        "step,loss\n" + "".join(f"{k + 1},{value!r}\n" for k, value in enumerate(trace)),
+    )
+    storage.write_text("training.json", json.dumps({"seconds": seconds, "loss": trace[-1]}))
+    storage.save_tensors("model.pt", model.state_dict())
+    return seconds, trace[-1]
+
+
+def work(cfg: DictConfig, setup: CGPDMSetup, contract: RunContract, finished: list[Any]) -> None:
+    """Data, training (or the model trained here before), then every test sequence not
+    yet in the summary: its log chunk, then its row."""
+    storage = contract.storage
+    if len(finished) == cfg.data.num_test:
+        log.info("%s is complete; nothing to do", storage.path)
+        return
+    dataset = load_dataset(cfg, setup.cloth, setup.excitation)
+    train_rows, test_rows = split(dataset, cfg.data.num_test, cfg.data.num_train, cfg.seed)
+    setup.model.check_observation_dim(dataset.observations.shape[-1])
+    training, test = dataset.subset(train_rows), dataset.subset(test_rows)
+    storage.write_text(
+        "training_set.json",
+        json.dumps(
+            {"draw": cfg.seed, "train": training.indices.tolist(), "test": test.indices.tolist()}
+        ),
+    )
+    setup.model.set_data(training_data(training, setup.device))
+    seconds, loss = train_model(setup, storage)
+    log.info(
+        "trained on %d sequences (%d points) in %.1f s, loss %.4f",
+        len(train_rows),
+        training.observations.shape[0] * training.observations.shape[1],
+        seconds,
+        loss,
+    )
+    latent, predicted, predict_seconds = evaluate(setup.model, test)
+    errors = score(test, predicted)
+    storage.save_arrays(
+        "predictions.npz",
+        {
+            "latent": latent,
+            "predicted": predicted,
+            "true": test.observations,
+            "controls": test.controls,
+            "training_latent": setup.model.sequences().detach().cpu().numpy(),
+        },
+    )
+    results = TestResults(test, latent, predicted, errors, seconds, predict_seconds, loss)
+    log_test_sequences(cfg, contract, results, [int(s) for s in finished])
     table = storage.summary()
     log.info(
         "R=%s n=%d draw=%d %s: mean error %.4f m (still %.4f, rigid %.4f)",
@@ -175,30 +191,41 @@ def tracking_observers(cfg: DictConfig, run_dir: Path) -> list[Any]:
     return observers
 
 
+@dataclass
+class TestResults:
+    """A trained model's predictions of the test set, its errors and timings."""
+
+    test: ClothDataset
+    latent: np.ndarray
+    predicted: np.ndarray
+    errors: dict[str, np.ndarray]
+    train_seconds: float
+    predict_seconds: float
+    loss: float
+
+
 def log_test_sequences(
-    cfg: DictConfig,
-    run_dir: Path,
-    config_yaml: str,
-    test: ClothDataset,
-    latent: np.ndarray,
-    predicted: np.ndarray,
-    errors: dict[str, np.ndarray],
-    train_seconds: float,
-    predict_seconds: float,
-    loss: float,
-    storage: RunDirectory,
+    cfg: DictConfig, contract: RunContract, results: TestResults, finished: list[int]
 ) -> None:
-    """Per test sequence, to the MCAP log (and the Rerun recording): the true cloth (state)
-    with the prediction (measurement), the latent trajectory, and its summary row (also
-    appended to ``summary.csv``)."""
-    observers = tracking_observers(cfg, run_dir)
+    """Per test sequence not in ``finished``, to the MCAP log (and the Rerun recording):
+    the true cloth (state) with the prediction (measurement), the latent trajectory; then
+    its summary row. The finished sequences' log chunks are kept as they are."""
+    storage, test = contract.storage, results.test
+    observers = tracking_observers(cfg, storage.path)
+    config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
+    done = [k for k, sequence in enumerate(test.indices) if int(sequence) in finished]
+    if done != list(range(len(done))):
+        raise RunFileError(
+            f"{storage.path / 'summary.csv'} lists sequences {finished}, not a start of the "
+            f"test set {test.indices.tolist()}"
+        )
     for observer in observers:
-        observer.run_started(run_metadata(config_yaml, cfg.seed, "cpu", "float64"), -1)
+        observer.run_started(run_metadata(config_yaml, cfg.seed, "cpu", "float64"), len(done) - 1)
     dt = float(cfg.cloth.sample_dt)
-    distances = point_distance_per_step(test.observations, predicted)  # [S, N] m
+    distances = point_distance_per_step(test.observations, results.predicted)  # [S, N] m
+    errors = results.errors
     try:
-        for k in range(len(test.indices)):
-            distance = distances[k]
+        for k in range(len(done), len(test.indices)):
             row = {
                 "trial": k,
                 "sequence": int(test.indices[k]),
@@ -210,41 +237,44 @@ def log_test_sequences(
                 "still_error_m": float(errors["still"][k]),
                 "rigid_error_m": float(errors["rigid"][k]),
                 "eval_cost": float(errors["model"][k]),
-                "fit_seconds": train_seconds,
-                "predict_seconds": predict_seconds,
-                "final_loss": loss,
+                "fit_seconds": results.train_seconds,
+                "predict_seconds": results.predict_seconds,
+                "final_loss": results.loss,
             }
+            cloth = sequence_trajectory(
+                test.observations[k], test.controls[k], dt, results.predicted[k]
+            )
+            latent = sequence_trajectory(results.latent[k], test.controls[k], dt)
             for observer in observers:
-                observer.rollout(
-                    k,
-                    sequence_trajectory(test.observations[k], test.controls[k], dt, predicted[k]),
-                    distance,
-                    distance,
-                    kind="cloth",
-                )
-                observer.rollout(
-                    k,
-                    sequence_trajectory(latent[k], test.controls[k], dt),
-                    distance,
-                    distance,
-                    kind="latent",
-                )
-            storage.append_summary(row)
-            for observer in observers:
-                observer.trial_finished(k, row)
+                observer.rollout(k, cloth, distances[k], distances[k], kind="cloth")
+                observer.rollout(k, latent, distances[k], distances[k], kind="latent")
+                observer.trial_finished(k, row)  # the log chunk first, the row last
+            storage.append_summary(row, key=contract.kind.unit_key)
     finally:
         for observer in observers:
             observer.close()
 
 
+def _runner_for(cfg: DictConfig) -> Runner[Any]:
+    return GENERATE_RUNNER if cfg.get("mode") == "generate" else CGPDM_RUNNER
+
+
+CGPDM_RUNNER: Runner[CGPDMSetup] = Runner(
+    kind=CGPDM_KIND, resume_overrides=("threads", "device"), prepare=prepare, work=work
+)
+GENERATE_RUNNER: Runner[Any] = Runner(
+    kind=CLOTH_DATASETS,
+    resume_overrides=("threads",),
+    prepare=prepare_generation,
+    work=generate_datasets,
+)
+
+
 @hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="cgpdm")
 def main(cfg: DictConfig) -> None:
-    """Hydra entry point; failures as in ``runners.train`` (one line, ``failed.txt``)."""
-    run_dir = Path(HydraConfig.get().runtime.output_dir)
-    if cfg.mode not in ("train", "generate"):
-        raise ConfigError(f"mode={cfg.mode!r} must be train or generate")
-    action = train_and_evaluate if cfg.mode == "train" else generate_datasets
-    run_reporting_failures(lambda: action(cfg), run_dir, resume_hint=False)
+    """Hydra entry point: one job under the run-directory contract (:mod:`runners.job`);
+    ``mode`` picks the kind of run (a bad ``mode`` is refused by the check of every key)."""
+    run_job(cfg, _runner_for(cfg))
 
 
 if __name__ == "__main__":

@@ -4,40 +4,36 @@
 from __future__ import annotations
 
 import logging
-from pathlib import Path
 from typing import Any
 
 import numpy as np
-from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
 from mcpilco.build import make
-from mcpilco.cloth import ClothParameters, ClothSimulation, Excitation
+from mcpilco.checks import integer, number, numbers
+from mcpilco.cloth import ClothDataset, ClothParameters, ClothSimulation, Excitation
 from mcpilco.cloth.dataset import generate
 from mcpilco.cloth.store import stability_report
 from mcpilco.errors import ConfigError
-from mcpilco.run_storage import RunDirectory
+from mcpilco.run_contract import RunContract
 from mcpilco.safe_config import check_targets
 from mcpilco.tracking import McapLogger
 from mcpilco.tracking.metadata import run_metadata
 from mcpilco.trajectory import Trajectory
+from runners.cgpdm_checks import check_cgpdm_config
 
 log = logging.getLogger("mcpilco.cgpdm")
 
 
 def excitation_from(cfg: DictConfig) -> Excitation:
-    """``excitation.*`` checked: one-line errors naming the key."""
+    """``excitation.*`` checked (one-line errors naming the key) and built."""
     node = cfg.excitation
-    low, high = (float(f) for f in node.frequency_range)
+    amplitude = number("excitation.amplitude", node.amplitude, above=0)
+    low, high = numbers("excitation.frequency_range", node.frequency_range, length=2)
     if not 0 < low <= high:
-        raise ConfigError(
-            f"excitation.frequency_range={list(node.frequency_range)} must be 0 < low <= high"
-        )
-    if not node.amplitude > 0:
-        raise ConfigError(f"excitation.amplitude={node.amplitude!r} must be positive")
-    if not isinstance(node.num_samples, int) or node.num_samples < 3:
-        raise ConfigError(f"excitation.num_samples={node.num_samples!r} must be an integer >= 3")
-    return Excitation(float(node.amplitude), (low, high), int(node.num_samples))
+        raise ConfigError(f"excitation.frequency_range={[low, high]} must be 0 < low <= high")
+    samples = integer("excitation.num_samples", node.num_samples, minimum=3)
+    return Excitation(amplitude, (low, high), samples)
 
 
 def sequence_trajectory(
@@ -51,60 +47,69 @@ def sequence_trajectory(
     )
 
 
-def generate_datasets(cfg: DictConfig) -> None:
-    """``mode=generate``: every range of ``data.ranges``, written and checked."""
+def prepare_generation(cfg: DictConfig) -> tuple[ClothParameters, Excitation]:
+    """``mode=generate``: every key checked, the cloth and excitation built; nothing
+    simulated yet."""
     check_targets(cfg)
-    cloth: ClothParameters = make(cfg.cloth)
-    excitation = excitation_from(cfg)
+    check_cgpdm_config(cfg)
+    return make(cfg.cloth), excitation_from(cfg)
+
+
+def generate_datasets(
+    cfg: DictConfig,
+    built: tuple[ClothParameters, Excitation],
+    contract: RunContract,
+    finished: list[Any],
+) -> None:
+    """``mode=generate``: every range of ``data.ranges`` not yet in the summary simulated,
+    written (``datasets/R<R>.npz`` + ``.json``) and checked; the log holds every data set's
+    sequences (those made before are read back from their files, not simulated again)."""
+    cloth, excitation = built
     simulation = ClothSimulation(cloth)
-    run_dir = Path(HydraConfig.get().runtime.output_dir)
-    storage = RunDirectory(run_dir)
-    with storage.locked():
-        config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
-        storage.write_text("config.yaml", config_yaml)
-        observers: list[Any] = [McapLogger(run_dir)] if cfg.tracking.mcap else []
-        for observer in observers:
-            observer.run_started(run_metadata(config_yaml, cfg.data.seed, "cpu", "float64"), -1)
-        try:
-            for index, range_deg in enumerate(cfg.data.ranges):
+    storage = contract.storage
+    done = {float(r) for r in finished}
+    config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
+    observers: list[Any] = [McapLogger(storage.path)] if cfg.tracking.mcap else []
+    for observer in observers:  # the log is written anew: from the files, then simulated
+        observer.run_started(run_metadata(config_yaml, cfg.data.seed, "cpu", "float64"), -1)
+    try:
+        for index, range_deg in enumerate(float(r) for r in cfg.data.ranges):
+            path = storage.path / "datasets" / f"R{range_deg:g}.npz"
+            if range_deg in done:
+                dataset = ClothDataset.load(path)
+            else:
                 dataset = generate(
-                    simulation,
-                    excitation,
-                    float(range_deg),
-                    int(cfg.data.seed),
+                    simulation, excitation, range_deg, int(cfg.data.seed),
                     range(int(cfg.data.num_sequences)),
+                )  # fmt: skip
+                dataset.save(path)
+            report = stability_report(dataset, simulation)
+            for k in range(len(dataset.indices)):
+                zero = np.zeros(dataset.observations.shape[1])
+                trajectory = sequence_trajectory(
+                    dataset.observations[k], dataset.controls[k], cloth.sample_dt
                 )
-                dataset.save(run_dir / "datasets" / f"R{float(range_deg):g}.npz")
-                report = stability_report(dataset, simulation)
-                for k in range(len(dataset.indices)):
-                    zero = np.zeros(dataset.observations.shape[1])
-                    for observer in observers:
-                        observer.rollout(
-                            index * 1000 + k,
-                            sequence_trajectory(
-                                dataset.observations[k], dataset.controls[k], cloth.sample_dt
-                            ),
-                            zero,
-                            zero,
-                            kind=f"cloth_R{float(range_deg):g}",
-                        )
-                row = {
-                    "trial": index,
-                    "range_deg": float(range_deg),
-                    "sequences": len(dataset.indices),
-                    **report,
-                }
-                storage.append_summary(row)
                 for observer in observers:
-                    observer.trial_finished(index, row)
-                log.info(
-                    "R=%g: %d sequences, largest edge stretch %.2f %%, farthest vertex "
-                    "%.3f m from the grip",
-                    range_deg,
-                    len(dataset.indices),
-                    100 * report["max_edge_stretch"],
-                    report["max_distance_from_grip_m"],
-                )
-        finally:
-            for observer in observers:
-                observer.close()
+                    observer.rollout(
+                        index * 1000 + k, trajectory, zero, zero, kind=f"cloth_R{range_deg:g}"
+                    )
+            row = {
+                "trial": index,
+                "range_deg": range_deg,
+                "sequences": len(dataset.indices),
+                **report,
+            }
+            for observer in observers:  # the log chunk first, the row last
+                observer.trial_finished(index, row)
+            storage.append_summary(row, key=contract.kind.unit_key)
+            log.info(
+                "R=%g: %d sequences, largest edge stretch %.2f %%, farthest vertex "
+                "%.3f m from the grip",
+                range_deg,
+                len(dataset.indices),
+                100 * report["max_edge_stretch"],
+                report["max_distance_from_grip_m"],
+            )
+    finally:
+        for observer in observers:
+            observer.close()

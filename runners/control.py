@@ -10,16 +10,17 @@ tracking run per reference seed (``summary.csv``, ``tracking/seed_KK.npz``, ``ro
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import hydra
 import numpy as np
 import torch
-from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig, OmegaConf
 
 from mcpilco.build import make
+from mcpilco.checks import integer, optional_integer
 from mcpilco.control import (
     GPInverseDynamics,
     SineReference,
@@ -28,35 +29,20 @@ from mcpilco.control import (
     TrackingRun,
     track,
 )
-from mcpilco.control.model_store import load_or_fit
-from mcpilco.errors import ConfigError
+from mcpilco.control.model_store import load_or_fit, new_model
+from mcpilco.errors import RunFileError
+from mcpilco.run_contract import CONTROL, RunContract
 from mcpilco.run_storage import RunDirectory
 from mcpilco.safe_config import check_targets
 from mcpilco.tracking import McapLogger
 from mcpilco.tracking.metadata import run_metadata
 from mcpilco.trajectory import Trajectory
-from runners.failures import run_reporting_failures
+from runners.control_checks import check_control_config
+from runners.job import Runner, run_job
 from runners.options import rerun_mode
 
 CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.control")
-
-
-def check_reference(reference: DictConfig) -> None:
-    """One-line errors naming the ``reference.*`` key, before any work."""
-    seeds = reference.seeds
-    if not seeds or not all(isinstance(s, int) and s >= 0 for s in seeds):
-        raise ConfigError(f"reference.seeds={list(seeds)!r} must be non-negative integers")
-    for key in ("duration", "threshold_deg"):
-        value = reference[key]
-        if not isinstance(value, int | float) or not np.isfinite(value) or value <= 0:
-            raise ConfigError(f"reference.{key}={value!r} must be positive")
-    for key in ("settle", "initial_error", "amplitude", "frequency_std"):
-        value = reference[key]
-        if not isinstance(value, int | float) or not np.isfinite(value):
-            raise ConfigError(f"reference.{key}={value!r} must be a finite number")
-    if not 0 <= reference.settle < reference.duration:
-        raise ConfigError(f"reference.settle={reference.settle} must be in [0, duration)")
 
 
 def tracking_observers(cfg: DictConfig, run_dir: Path) -> list[Any]:
@@ -87,35 +73,58 @@ def log_run(observers: list[Any], index: int, run: TrackingRun, row: dict[str, A
         observer.trial_finished(index, row)
 
 
-def control(cfg: DictConfig) -> None:
-    """Build and check everything, get the model, run the tracking experiments."""
+@dataclass
+class ControlSetup:
+    """What a control run is built from (checked, before any work)."""
+
+    robot: TorqueControlledRobot
+    controller: TrackingController
+
+
+def prepare(cfg: DictConfig) -> ControlSetup:
+    """Check every key and build the robot and controller; no data, fit or tracking yet."""
     check_targets(cfg)
+    integer("seed", cfg.seed)
+    optional_integer("threads", cfg.get("threads"))
     if cfg.get("threads") is not None:
         torch.set_num_threads(int(cfg.threads))
     robot: TorqueControlledRobot = make(cfg.robot)
     controller: TrackingController = make(cfg.controller)
-    check_reference(cfg.reference)
-    rerun_mode(cfg)
-    run_dir = Path(HydraConfig.get().runtime.output_dir)
-    storage = RunDirectory(run_dir)
-    with storage.locked():
-        model: GPInverseDynamics | None = None
-        if controller.needs_model:
-            model = load_or_fit(cfg, robot, Path(cfg.model_dir))
-        controller.bind(robot, model)
-        config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
-        storage.write_text("config.yaml", config_yaml)
-        storage.clear_failure()
-        observers = tracking_observers(cfg, run_dir)
+    check_control_config(cfg, robot.num_joints, robot.dt)
+    if controller.needs_model:
+        new_model(cfg, robot)  # the kernel and GP settings are checked here, before any data
+    return ControlSetup(robot, controller)
+
+
+def work(cfg: DictConfig, setup: ControlSetup, contract: RunContract, finished: list[Any]) -> None:
+    """Get the model (fitted once per model directory), then track every reference seed
+    not yet finished here; each seed's log chunk is closed before its summary row."""
+    robot, controller, storage = setup.robot, setup.controller, contract.storage
+    seeds = [int(s) for s in cfg.reference.seeds]
+    done = [int(s) for s in finished]
+    if done != seeds[: len(done)]:
+        raise RunFileError(
+            f"{storage.path / 'summary.csv'} lists reference seeds {done}, not a start of "
+            f"reference.seeds={seeds}"
+        )
+    model: GPInverseDynamics | None = None
+    if controller.needs_model:
+        model = load_or_fit(cfg, robot, Path(cfg.model_dir))
+    controller.bind(robot, model)
+    config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
+    observers = tracking_observers(cfg, storage.path)
+    for observer in observers:
+        observer.run_started(run_metadata(config_yaml, cfg.seed, "cpu", "float64"), len(done) - 1)
+    try:
+        for index, seed in enumerate(seeds):
+            if seed in done:
+                continue
+            run, row = run_reference(cfg, robot, controller, storage, index, seed)
+            log_run(observers, index, run, row)  # the log chunk first, the row last
+            storage.append_summary(row, key=contract.kind.unit_key)
+    finally:
         for observer in observers:
-            observer.run_started(run_metadata(config_yaml, cfg.seed, "cpu", "float64"), -1)
-        try:
-            for index, seed in enumerate(cfg.reference.seeds):
-                run, row = run_reference(cfg, robot, controller, storage, index, seed)
-                log_run(observers, index, run, row)
-        finally:
-            for observer in observers:
-                observer.close()
+            observer.close()
     log.info("summary:\n%s", storage.summary().to_string(index=False))
 
 
@@ -127,14 +136,15 @@ def run_reference(
     index: int,
     seed: int,
 ) -> tuple[TrackingRun, dict[str, Any]]:
-    """Track the reference of ``seed``; store its arrays and summary row."""
+    """Track the reference of ``seed``; store its arrays; return its summary row."""
     reference_cfg = cfg.reference
+    mean = reference_cfg.frequency_mean
     reference = SineReference.random(
         np.random.default_rng(seed),
         robot.num_joints,
-        reference_cfg.amplitude,
-        reference_cfg.frequency_mean,
-        reference_cfg.frequency_std,
+        float(reference_cfg.amplitude),
+        mean if isinstance(mean, int | float) else np.asarray(list(mean), dtype=np.float64),
+        float(reference_cfg.frequency_std),
     )
     run = track(robot, controller, reference, reference_cfg.duration, reference_cfg.initial_error)
     metrics = run.metrics(reference_cfg.settle, reference_cfg.threshold_deg)
@@ -148,7 +158,6 @@ def run_reference(
             row.update({f"{key}_{j + 1}": v for j, v in enumerate(value)})
         else:
             row[key] = value
-    storage.append_summary(row)
     worst = max(metrics["steady_state_max_error_deg"])  # type: ignore[arg-type]
     log.info(
         "seed %d: %s, worst steady-state error %.3f deg, controller p99 %.3f ms",
@@ -160,11 +169,15 @@ def run_reference(
     return run, row
 
 
+CONTROL_RUNNER: Runner[ControlSetup] = Runner(
+    kind=CONTROL, resume_overrides=("threads",), prepare=prepare, work=work
+)
+
+
 @hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="control")
 def main(cfg: DictConfig) -> None:
-    """Hydra entry point; failures as in ``runners.train`` (one line, ``failed.txt``)."""
-    run_dir = Path(HydraConfig.get().runtime.output_dir)
-    run_reporting_failures(lambda: control(cfg), run_dir, resume_hint=False)
+    """Hydra entry point: one job under the run-directory contract (:mod:`runners.job`)."""
+    run_job(cfg, CONTROL_RUNNER)
 
 
 if __name__ == "__main__":

@@ -61,8 +61,7 @@ def warn_unlogged(run_dir: Path, logged: list[int]) -> None:
     missing = sorted(set(finished) - set(logged))
     if missing:
         log.warning(
-            "trials %s are finished (summary.csv) but not whole in the log; their data are in "
-            "%s/trajectories",
+            "%s are finished (summary.csv) but not whole in the log; their data are in %s",
             missing,
             run_dir,
         )
@@ -143,10 +142,18 @@ def replay_meshes(run_log: RunLog, args: argparse.Namespace) -> int:
         streamer.rollout(int(trial), trajectory, cost, cost, kind=str(kind))
         replayed.add(int(trial))
     streamer.close()
+    whole = sorted(replayed - skipped)
     if skipped:
         log.warning("sequences %s are not whole in the log; not replayed", sorted(skipped))
-    log.info("replayed sequences %s", sorted(replayed - skipped))
-    return 0 if replayed - skipped else 2
+    if "cloth" in set(rollouts["kind"]):  # a cgpdm run: its summary lists the test sequences
+        warn_unlogged(args.run_dir, whole)
+    if not whole:
+        log.error("%s holds no whole sequence in its log: nothing replayed", args.run_dir)
+        return 2
+    log.info("replayed sequences %s", whole)
+    if not args.connect:
+        log.info("wrote %s", args.save or args.run_dir / "replay.rrd")
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -169,6 +176,9 @@ def main(argv: list[str] | None = None) -> int:
         return replay_meshes(run_log, args)
     available = complete_trials(run_log)
     warn_unlogged(args.run_dir, available)
+    if not available:
+        log.error("%s holds no whole trial in its log: nothing to replay", args.run_dir)
+        return 2
     trials = args.trial or available
     missing = sorted(set(trials) - set(available))
     if missing:
@@ -178,7 +188,11 @@ def main(argv: list[str] | None = None) -> int:
     if run_log.metadata and "config" in run_log.metadata[0]:
         # the logged system, for its drawing; checked first (see mcpilco.safe_config), and
         # a plug-in that is not importable here only costs the drawing
-        system = saved_system(run_log.metadata[0]["config"], f"{args.run_dir} (MCAP metadata)")
+        system = saved_system(
+            run_log.metadata[0]["config"],
+            f"{args.run_dir} (MCAP metadata)",
+            untrusted=args.run_dir if args.run_dir.is_dir() else args.run_dir.parent,
+        )
         if system is not None:
             sketch, names = system.sketch, system.state_names
     if args.connect:
@@ -193,6 +207,8 @@ def main(argv: list[str] | None = None) -> int:
         )  # fmt: skip
     replay(run_log, streamer, trials)
     log.info("replayed trials %s", trials)
+    if not args.connect:
+        log.info("wrote %s", args.save or args.run_dir / "replay.rrd")
     return 0
 
 

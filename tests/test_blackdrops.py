@@ -169,7 +169,7 @@ def test_building_an_experiment_does_not_load_cma() -> None:
     )
     result = subprocess.run(
         [sys.executable, "-c", probe],
-        cwd=Path(__file__).resolve().parent.parent,
+        cwd=Path.cwd(),
         capture_output=True,
         text=True,
         timeout=300,

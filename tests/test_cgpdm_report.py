@@ -59,7 +59,7 @@ def test_report_command_writes_the_table_and_figure(tmp_path: Path) -> None:
     result = subprocess.run(
         [sys.executable, "-m", "analysis.cgpdm_report", str(tmp_path / "runs"),
          "--out", str(tmp_path / "out")],
-        cwd=ROOT, capture_output=True, text=True, timeout=300,
+        cwd=Path.cwd(), capture_output=True, text=True, timeout=300,
     )  # fmt: skip
     assert result.returncode == 0, result.stderr[-2000:]
     text = (tmp_path / "out" / "errors.md").read_text()

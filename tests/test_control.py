@@ -52,7 +52,7 @@ def test_pybullet_arm_is_torque_controlled_with_an_exact_true_model(arm: PyBulle
     with pytest.raises(ConfigError, match=r"robot.num_joints=6 but .* has 7 revolute joints"):
         PyBulletArm(num_joints=6)
     for key in ("dt", "joint_damping"):
-        with pytest.raises(ConfigError, match=f"system.{key} must be"):
+        with pytest.raises(ConfigError, match=f"robot.{key} must be"):
             PyBulletArm(**{key: -1.0})
 
 
@@ -187,7 +187,7 @@ TINY = [
 def run_control(*overrides: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
         [sys.executable, "-m", "runners.control", *overrides],
-        cwd=ROOT, capture_output=True, text=True, timeout=600,
+        cwd=Path.cwd(), capture_output=True, text=True, timeout=600,
     )  # fmt: skip
 
 
@@ -221,7 +221,7 @@ def test_runner_fits_once_and_reuses_the_model(tmp_path: Path) -> None:
     assert set(data_log.rollouts["kind"]) == {"train", "test"}
     replay = subprocess.run(
         [sys.executable, "-m", "runners.replay", str(tmp_path / "b")],
-        cwd=ROOT, capture_output=True, text=True, timeout=600,
+        cwd=Path.cwd(), capture_output=True, text=True, timeout=600,
     )  # fmt: skip
     assert replay.returncode == 0, replay.stderr[-2000:]
     assert (tmp_path / "b" / "recording.rrd").is_file()
@@ -232,7 +232,7 @@ def test_runner_fits_once_and_reuses_the_model(tmp_path: Path) -> None:
     [
         (["robot.num_joints=6"], "robot.num_joints=6 but"),
         (["controller.omega=0"], "controller.omega must be positive"),
-        (["robot.dt=-0.001"], "system.dt must be positive"),
+        (["robot.dt=-0.001"], "robot.dt must be positive"),
         (["fit_model=false"], "holds no fitted model and fit_model=false"),
         (["reference.seeds=[]"], "reference.seeds"),
         (["tracking.rerun=connect"], "tracking.rerun='connect' must be off or save"),

@@ -52,7 +52,7 @@ main()
 def run(code_or_module: list[str]) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
         [sys.executable, *code_or_module],
-        cwd=ROOT,
+        cwd=Path.cwd(),
         capture_output=True,
         text=True,
         timeout=600,  # a hang guard, not a time limit

@@ -95,7 +95,7 @@ def test_nan_reading_stops_the_run_with_one_line_and_keeps_finished_trials(
             "+system.nan_step=5",
             f"hydra.run.dir={run_dir}",
         ],
-        cwd=ROOT,
+        cwd=Path.cwd(),
         env={**os.environ, "PYTHONPATH": f"{tmp_path}{os.pathsep}{ROOT}"},
         capture_output=True,
         text=True,

@@ -76,7 +76,7 @@ def test_user_system_and_cost_plug_in(tmp_path: Path) -> None:
             "policy.num_basis=5",
             f"hydra.run.dir={tmp_path / 'run'}",
         ],
-        cwd=ROOT,
+        cwd=Path.cwd(),
         env=env,
         capture_output=True,
         text=True,
@@ -89,13 +89,13 @@ def test_user_system_and_cost_plug_in(tmp_path: Path) -> None:
     # The analysis commands work on a system without evaluation cost or success criterion.
     summary_cli = subprocess.run(
         [sys.executable, "-m", "analysis.summary", str(tmp_path / "run")],
-        cwd=ROOT, env=env, capture_output=True, text=True, timeout=600,
+        cwd=Path.cwd(), env=env, capture_output=True, text=True, timeout=600,
     )  # fmt: skip
     assert summary_cli.returncode == 0, summary_cli.stderr[-2000:]
     assert "| SE | 0 | — | — | — |" in summary_cli.stdout
     evaluation = subprocess.run(
         [sys.executable, "-m", "analysis.evaluate", str(tmp_path / "run"), "--runs", "3"],
-        cwd=ROOT, env=env, capture_output=True, text=True, timeout=600,
+        cwd=Path.cwd(), env=env, capture_output=True, text=True, timeout=600,
     )  # fmt: skip
     assert evaluation.returncode == 0, evaluation.stderr[-2000:]
     assert "no success count" in evaluation.stdout and "0/3" not in evaluation.stdout
@@ -106,7 +106,7 @@ def test_user_system_and_cost_plug_in(tmp_path: Path) -> None:
     for environment, warned in ((env, False), ({**os.environ, "PYTHONPATH": str(ROOT)}, True)):
         replay = subprocess.run(
             [sys.executable, "-m", "runners.replay", str(tmp_path / "run")],
-            cwd=ROOT, env=environment, capture_output=True, text=True, timeout=600,
+            cwd=Path.cwd(), env=environment, capture_output=True, text=True, timeout=600,
         )  # fmt: skip
         assert replay.returncode == 0, replay.stderr[-2000:]
         assert ("my_plants.Pendulum" in replay.stderr) is warned
@@ -114,7 +114,7 @@ def test_user_system_and_cost_plug_in(tmp_path: Path) -> None:
         assert (tmp_path / "run" / "replay.rrd").stat().st_size > 1000
     report = subprocess.run(
         [sys.executable, "-m", "analysis.report", str(tmp_path / "run")],
-        cwd=ROOT, env=env, capture_output=True, text=True, timeout=600,
+        cwd=Path.cwd(), env=env, capture_output=True, text=True, timeout=600,
     )  # fmt: skip
     assert report.returncode == 0, report.stderr[-2000:]
     index = (tmp_path / "run" / "report" / "index.md").read_text()
@@ -122,6 +122,6 @@ def test_user_system_and_cost_plug_in(tmp_path: Path) -> None:
     assert (tmp_path / "run" / "report" / "prediction_errors.png").is_file()
     figure = subprocess.run(
         [sys.executable, "-m", "analysis.plot_run", str(tmp_path / "run"), "--trial", "1"],
-        cwd=ROOT, env=env, capture_output=True, text=True, timeout=600,
+        cwd=Path.cwd(), env=env, capture_output=True, text=True, timeout=600,
     )  # fmt: skip
     assert figure.returncode == 0, figure.stderr[-2000:]

@@ -37,7 +37,7 @@ TINY = [
 def run_module(module: str, *args: str, env: dict[str, str] | None = None):  # type: ignore[no-untyped-def]
     return subprocess.run(
         [sys.executable, "-m", module, *args],
-        cwd=ROOT,
+        cwd=Path.cwd(),
         capture_output=True,
         text=True,
         timeout=600,  # a hang guard, not a time limit
@@ -75,7 +75,7 @@ def test_a_killed_process_does_not_leave_the_lock_stuck(tmp_path: Path) -> None:
                 """
             ),
         ],
-        cwd=ROOT,
+        cwd=Path.cwd(),
         stdout=subprocess.PIPE,
         text=True,
     )
@@ -98,7 +98,7 @@ def test_two_runs_started_together_in_one_directory_never_mix(tmp_path: Path) ->
     runs = [
         subprocess.Popen(
             [*command, f"seed={seed}"],
-            cwd=ROOT,
+            cwd=Path.cwd(),
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
@@ -110,7 +110,7 @@ def test_two_runs_started_together_in_one_directory_never_mix(tmp_path: Path) ->
     assert sorted(codes) == [0, 2], outputs
     winner = codes.index(0)
     loser_output = "".join(outputs[1 - winner])
-    assert "is in use by" in loser_output or "holds a different run" in loser_output
+    assert "is in use by" in loser_output or "holds a train run made with" in loser_output
     assert pd.read_csv(tmp_path / "summary.csv")["trial"].tolist() == [0, 1, 2]
     assert OmegaConf.load(tmp_path / "config.yaml").seed == winner
 
@@ -251,7 +251,7 @@ def test_ctrl_c_writes_failed_txt_and_keeps_finished_trials(tmp_path: Path) -> N
             "optimizer.max_steps=400", "optimizer.max_steps_first_trial=400",
             f"hydra.run.dir={tmp_path}",
         ],
-        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        cwd=Path.cwd(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         # a shell's background job (e.g. `.ci/run &`) ignores SIGINT, and the child would
         # inherit that: Ctrl-C is what is tested, so the child gets the default handler
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),

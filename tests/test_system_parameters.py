@@ -44,7 +44,7 @@ def test_bad_physical_parameter_is_a_one_line_error(system: type, name: str, val
 def test_negative_cart_mass_stops_the_runner_before_any_work(tmp_path: Path) -> None:
     result = subprocess.run(
         [sys.executable, "-m", "runners.train", "system.cart_mass=-0.5", f"hydra.run.dir={tmp_path}"],  # noqa: E501
-        cwd=ROOT, capture_output=True, text=True, timeout=600,
+        cwd=Path.cwd(), capture_output=True, text=True, timeout=600,
     )  # fmt: skip
     assert result.returncode == 2
     errors = [line for line in (result.stdout + result.stderr).splitlines() if "ERROR" in line]

@@ -40,7 +40,7 @@ def train_command(*overrides: str) -> list[str]:
 def test_log_holds_every_rollout_and_the_metadata(tmp_path: Path) -> None:
     result = subprocess.run(
         train_command(*TINY, "num_trials=2", "optimizer.max_steps=3", f"hydra.run.dir={tmp_path}"),
-        cwd=ROOT,
+        cwd=Path.cwd(),
         capture_output=True,
         text=True,
         timeout=600,  # a hang guard, not a time limit (a loaded machine is slow)
@@ -111,7 +111,7 @@ def test_sigkill_mid_trial_then_resume_keeps_each_trial_once(tmp_path: Path) -> 
     ]
     process = subprocess.Popen(
         train_command(*TINY, *slow_trial_2, f"hydra.run.dir={run_dir}"),
-        cwd=ROOT,
+        cwd=Path.cwd(),
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
@@ -131,7 +131,7 @@ def test_sigkill_mid_trial_then_resume_keeps_each_trial_once(tmp_path: Path) -> 
 
     resumed = subprocess.run(
         train_command("num_trials=2", f"resume={run_dir}", f"hydra.run.dir={tmp_path / 'h'}"),
-        cwd=ROOT,
+        cwd=Path.cwd(),
         capture_output=True,
         text=True,
         timeout=400,
@@ -189,7 +189,7 @@ def test_rerun_recording_and_replay_verify_and_hold_the_particles(tmp_path: Path
             "tracking.rerun_stream.max_particles=60",
             f"hydra.run.dir={tmp_path}",
         ),
-        cwd=ROOT,
+        cwd=Path.cwd(),
         capture_output=True,
         text=True,
         timeout=600,  # a hang guard, not a time limit (a loaded machine is slow)
@@ -197,7 +197,7 @@ def test_rerun_recording_and_replay_verify_and_hold_the_particles(tmp_path: Path
     assert result.returncode == 0, result.stderr[-2000:]
     replayed = subprocess.run(
         [sys.executable, "-m", "runners.replay", str(tmp_path), "--save", str(tmp_path / "r.rrd")],
-        cwd=ROOT,
+        cwd=Path.cwd(),
         capture_output=True,
         text=True,
         timeout=600,  # a hang guard, not a time limit (a loaded machine is slow)
@@ -223,7 +223,7 @@ def test_rerun_recording_and_replay_verify_and_hold_the_particles(tmp_path: Path
 def test_replay_of_a_missing_trial_fails_clearly(tmp_path: Path) -> None:
     result = subprocess.run(
         [sys.executable, "-m", "runners.replay", str(tmp_path)],
-        cwd=ROOT,
+        cwd=Path.cwd(),
         capture_output=True,
         text=True,
         timeout=60,

@@ -104,14 +104,19 @@ class ClothDataset:
         )
 
     def save(self, path: Path) -> None:
-        """``path`` (.npz of arrays only) beside ``path.with_suffix('.json')``."""
+        """``path`` (.npz of arrays only) beside ``path.with_suffix('.json')``. Both are
+        written beside their names first; the ``.json`` is renamed into place before the
+        ``.npz``, so a ``.npz`` on disk always has its ``.json`` (a kill in between leaves a
+        ``.json`` alone, which the next save replaces)."""
         path.parent.mkdir(parents=True, exist_ok=True)
         partial = path.with_name(f".{path.name}.partial.npz")
+        meta, meta_partial = path.with_suffix(".json"), path.with_name(f".{path.stem}.partial.json")
         np.savez(
             partial, observations=self.observations, controls=self.controls, indices=self.indices
         )
+        meta_partial.write_text(json.dumps(self.metadata, indent=1))
+        meta_partial.replace(meta)
         partial.replace(path)
-        path.with_suffix(".json").write_text(json.dumps(self.metadata, indent=1))
 
     @classmethod
     def load(cls, path: Path) -> ClothDataset:

@@ -25,15 +25,16 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from mcpilco.checks import non_negative, positive
 from mcpilco.errors import ConfigError, SimulationError
-from mcpilco.systems.checks import positive
+from mcpilco.extension import ExtensionPoint
 
 GRID = 8
 """Vertices per side; the thesis's mesh is 8×8 (D = 192)."""
 
 
 @dataclass(frozen=True)
-class ClothParameters:
+class ClothParameters(ExtensionPoint):
     """Physical and numerical facts of the simulated cloth (config group ``cloth``).
 
     Attributes:
@@ -64,9 +65,7 @@ class ClothParameters:
         for name in ("side", "mass", "edge_timeconst", "timestep", "sample_dt", "height"):
             positive(name, getattr(self, name), group="cloth")
         for name in ("edge_damping", "vertex_damping"):
-            value = getattr(self, name)
-            if not np.isfinite(value) or value < 0:
-                raise ConfigError(f"cloth.{name} must be >= 0, got {value!r}")
+            non_negative(name, getattr(self, name), group="cloth")
         substeps = self.sample_dt / self.timestep
         if abs(substeps - round(substeps)) > 1e-9 or round(substeps) < 1:
             raise ConfigError(

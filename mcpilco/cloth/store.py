@@ -74,9 +74,13 @@ def load_or_generate(directory: Path, key: DatasetKey) -> tuple[ClothDataset, Pa
     written there (atomically)."""
     path = key.path(directory)
     if path.exists():
-        dataset = ClothDataset.load(path)
-        check_compatible(dataset, key.parameters, key.excitation, key.range_deg, str(path))
-        return dataset, path
+        try:
+            dataset = ClothDataset.load(path)
+        except ConfigError as error:  # a damaged cache entry (a kill, a full disk): redo it
+            log.warning("%s; simulating it again", error)
+        else:
+            check_compatible(dataset, key.parameters, key.excitation, key.range_deg, str(path))
+            return dataset, path
     log.info(
         "simulating data set R=%g seed=%d (%d sequences) -> %s",
         key.range_deg, key.seed, key.num_sequences, path,

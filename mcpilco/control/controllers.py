@@ -8,12 +8,13 @@ from abc import ABC, abstractmethod
 import numpy as np
 import torch
 
+from mcpilco.checks import positive
 from mcpilco.control.inverse_dynamics import GPInverseDynamics
 from mcpilco.control.robot import TorqueControlledRobot
-from mcpilco.systems.checks import positive
+from mcpilco.extension import ExtensionPoint
 
 
-class TrackingController(ABC):
+class TrackingController(ExtensionPoint, ABC):
     """τ for the reference (r, ṙ, r̈) from a = r̈ + K_p e + K_d ė (eq. 5.2a), e = r − q,
     K_p = ω² I, K_d = 2ζω I (decoupled error dynamics of natural frequency ω, damping ζ).
 

@@ -7,10 +7,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mcpilco.checks import positive
 from mcpilco.control.references import filtered_noise
 from mcpilco.control.robot import TorqueControlledRobot
 from mcpilco.errors import ConfigError
-from mcpilco.systems.checks import positive
 
 
 @dataclass
@@ -66,7 +66,7 @@ def collect(
 
     Returns samples whose τ_t was applied at (q_t, q̇_t) and q̈_t = (q̇_{t+1} − q̇_{t−1}) / 2dt.
     """
-    positive("duration", duration)
+    positive("duration", duration, "data")
     if not isinstance(downsample, int) or downsample < 1:
         raise ConfigError(f"data.downsample={downsample!r} must be a positive integer")
     n, dt = robot.num_joints, robot.dt

@@ -25,7 +25,7 @@ from mcpilco.build import make
 from mcpilco.control.data import InverseDynamicsData, collect
 from mcpilco.control.inverse_dynamics import GPInverseDynamics, nmse_percent
 from mcpilco.control.robot import TorqueControlledRobot
-from mcpilco.errors import ConfigError
+from mcpilco.errors import CheckpointError, ConfigError
 from mcpilco.run_storage import RunDirectory, load_tensors
 from mcpilco.trajectory import Trajectory
 
@@ -70,6 +70,11 @@ def load_or_fit(
                 raise ConfigError(
                     f"model_dir={str(model_dir)!r}: model.json unreadable ({error})"
                 ) from None
+            if not isinstance(saved, dict):
+                raise ConfigError(
+                    f"model_dir={str(model_dir)!r}: model.json holds a "
+                    f"{type(saved).__name__}, not a model's record; pick another model_dir"
+                )
             for key in ("robot", "kernel", "data", "gp"):
                 if saved.get(key) != wanted[key]:
                     raise ConfigError(
@@ -78,7 +83,14 @@ def load_or_fit(
                         "model_dir"
                     )
             model = new_model(cfg, robot)
-            model.load_state_dict(load_tensors(model_dir / "gp.pt"))
+            try:
+                model.load_state_dict(load_tensors(model_dir / "gp.pt"))
+            except (RuntimeError, KeyError, ValueError) as error:
+                first = str(error).strip().splitlines()[0] if str(error).strip() else ""
+                raise CheckpointError(
+                    f"{model_dir / 'gp.pt'} does not fit the model model.json names "
+                    f"({type(error).__name__}: {first[:120]})"
+                ) from None
             log.info(
                 "loaded the GP model in %s (test nMSE %% %s)", model_dir, saved.get("nmse_percent")
             )

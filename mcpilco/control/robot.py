@@ -8,11 +8,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from mcpilco.checks import non_negative, positive, require_finite
 from mcpilco.errors import ConfigError
-from mcpilco.systems.checks import non_negative, positive, require_finite
+from mcpilco.extension import ExtensionPoint
 
 
-class TorqueControlledRobot(ABC):
+class TorqueControlledRobot(ExtensionPoint, ABC):
     """An n-joint manipulator driven by joint torques τ (N m) held over each step of ``dt``
     seconds, with its true rigid-body model (for the reference controller and tests).
 
@@ -82,8 +83,10 @@ class PyBulletArm(TorqueControlledRobot):
         import pybullet
         import pybullet_data
 
-        self.dt = positive("dt", dt)
-        self.joint_damping = float(non_negative("joint_damping", joint_damping))
+        self.dt = positive("dt", dt, "robot")
+        self.joint_damping = float(non_negative("joint_damping", joint_damping, "robot"))
+        if not isinstance(urdf, str) or not urdf:
+            raise ConfigError(f"robot.urdf={urdf!r} must be a URDF file name")
         path = urdf if os.path.isabs(urdf) else os.path.join(pybullet_data.getDataPath(), urdf)
         if not os.path.isfile(path):
             raise ConfigError(f"robot.urdf={urdf!r}: no such file ({path})")
@@ -109,7 +112,7 @@ class PyBulletArm(TorqueControlledRobot):
             )
         self.num_joints, self._joints = num_joints, joints
         pybullet.setGravity(
-            0, 0, -float(non_negative("gravity", gravity)), physicsClientId=self._client
+            0, 0, -float(non_negative("gravity", gravity, "robot")), physicsClientId=self._client
         )
         pybullet.setTimeStep(self.dt, physicsClientId=self._client)
         for joint in [-1, *joints]:

@@ -7,8 +7,10 @@ from abc import ABC, abstractmethod
 import torch
 from torch import nn
 
+from mcpilco.extension import ExtensionPoint
 
-class Cost(nn.Module, ABC):
+
+class Cost(ExtensionPoint, nn.Module, ABC):
     """c(x): a differentiable cost of each state. Subclass this for your own cost (and name
     it with ``cost._target_=my_pkg.MyCost``); a run directory's config may name only
     subclasses of mcpilco's extension points (see :mod:`mcpilco.safe_config`)."""

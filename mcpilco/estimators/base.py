@@ -14,8 +14,10 @@ from typing import Any
 import numpy as np
 import torch
 
+from mcpilco.extension import ExtensionPoint
 
-class StateEstimator(ABC):
+
+class StateEstimator(ExtensionPoint, ABC):
     """Offline and online state estimation from measurements."""
 
     @abstractmethod

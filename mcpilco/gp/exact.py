@@ -11,6 +11,7 @@ import torch
 from torch import nn
 
 from mcpilco.errors import ConfigError
+from mcpilco.extension import ExtensionPoint
 from mcpilco.gp.forward_gradient import FirstOrderForm
 from mcpilco.gp.linalg import cholesky_with_jitter
 from mcpilco.gp.prediction import (
@@ -76,7 +77,7 @@ class _PredictionCache:
         )
 
 
-class ExactGP(nn.Module):
+class ExactGP(ExtensionPoint, nn.Module):
     """G independent GPs with zero prior mean (thesis eq. 2.3–2.4).
 
     Args:

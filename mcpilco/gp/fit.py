@@ -9,13 +9,14 @@ from dataclasses import dataclass
 import torch
 
 from mcpilco.errors import ConfigError, NotPositiveDefiniteError
+from mcpilco.extension import ExtensionPoint
 from mcpilco.gp.exact import ExactGP
 
 log = logging.getLogger(__name__)
 
 
 @dataclass
-class MarginalLikelihoodFit:
+class MarginalLikelihoodFit(ExtensionPoint):
     """Full-batch L-BFGS (strong-Wolfe line search) on −log p(y | X) / N.
 
     If a trial point of the line search makes a kernel matrix non-positive-definite even

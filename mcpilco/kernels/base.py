@@ -8,6 +8,7 @@ Kernels are built from config as partials and completed with a :class:`KernelSha
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -17,6 +18,7 @@ import torch
 from torch import nn
 
 from mcpilco.errors import ConfigError
+from mcpilco.extension import ExtensionPoint
 from mcpilco.kernels.first_order import FirstOrderCross
 
 BasisFunction = Callable[[torch.Tensor], torch.Tensor]
@@ -62,7 +64,7 @@ class KernelShape:
     basis: BasisFunction | None = None
 
 
-class Kernel(nn.Module, ABC):
+class Kernel(ExtensionPoint, nn.Module, ABC):
     """A covariance function k(x, x') batched over G outputs."""
 
     def __init__(self, shape: KernelShape) -> None:
@@ -104,14 +106,25 @@ class Kernel(nn.Module, ABC):
 
     def _log_parameter(self, name: str, value: float | Sequence[float], size: int) -> nn.Parameter:
         """A ``[G, size]`` parameter holding log(value), after checking value > 0."""
-        values = torch.as_tensor(value, dtype=torch.float64).flatten()
-        if values.numel() not in (1, size) or torch.any(values <= 0):
+        try:
+            values = torch.as_tensor(value, dtype=torch.float64).flatten()
+        except (TypeError, ValueError, RuntimeError):
+            values = torch.tensor([math.nan], dtype=torch.float64)
+        if values.numel() not in (1, size) or not torch.all((values > 0) & values.isfinite()):
             raise ConfigError(
-                f"kernel {type(self).__name__}.{name} must be positive with 1 or {size} "
-                f"entries, got {value!r}"
+                f"kernel {type(self).__name__}.{name} must be positive and finite with 1 or "
+                f"{size} entries, got {value!r}"
             )
         values = values.expand(size).log()
         return nn.Parameter(values.repeat(self.shape.num_outputs, 1).clone())
+
+    def _flag(self, name: str, value: object) -> bool:
+        """``value`` if it is a bool; a one-line :class:`ConfigError` naming it otherwise."""
+        if not isinstance(value, bool):
+            raise ConfigError(
+                f"kernel {type(self).__name__}.{name} must be true or false, got {value!r}"
+            )
+        return value
 
 
 class KernelFactory(Protocol):

@@ -39,7 +39,7 @@ class Linear(Kernel):
         super().__init__(shape)
         self.active_dims = None if active_dims is None else tuple(active_dims)
         size = check_dims("Linear", self.active_dims, shape.input_dim)
-        size = 1 if isotropic else size
+        size = 1 if self._flag("isotropic", isotropic) else size
         self.log_weight = self._log_parameter("weight", weight, size)  # [G, D_S]
         self.max_weight = max_weight
         if max_weight is not None:

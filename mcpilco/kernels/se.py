@@ -90,10 +90,12 @@ class SquaredExponential(Kernel):
         super().__init__(shape)
         self.active_dims = None if active_dims is None else tuple(active_dims)
         size = check_dims("SquaredExponential", self.active_dims, shape.input_dim)
-        size = 1 if isotropic else size
+        size = 1 if self._flag("isotropic", isotropic) else size
         self.log_lengthscale = self._log_parameter("lengthscale", lengthscale, size)
         log_variance = self._log_parameter("variance", variance, 1)[:, 0]
-        self.log_variance = nn.Parameter(log_variance, requires_grad=train_variance)
+        self.log_variance = nn.Parameter(
+            log_variance, requires_grad=self._flag("train_variance", train_variance)
+        )
 
     def forward(self, x1: torch.Tensor, x2: torch.Tensor) -> torch.Tensor:
         inverse_lengthscale = torch.exp(-self.log_lengthscale)[:, None, :]  # [G, 1, D]

@@ -19,12 +19,14 @@ column.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import torch
 from torch import nn
 
 from mcpilco.errors import ConfigError
+from mcpilco.extension import ExtensionPoint
 from mcpilco.gp.linalg import cholesky_with_jitter
 from mcpilco.kernels.base import Kernel, KernelFactory, KernelShape
 from mcpilco.latent.pca import principal_components
@@ -46,7 +48,7 @@ class TrainingData:
     controls: torch.Tensor
 
 
-class CGPDM(nn.Module):
+class CGPDM(ExtensionPoint, nn.Module):
     """A CGPDM with latent dimension d on the kernel library.
 
     Args:
@@ -88,8 +90,15 @@ class CGPDM(nn.Module):
             ("dynamics_scale", dynamics_scale),
             ("min_noise", min_noise),
         ):
-            if not isinstance(value, int | float) or not value > 0:
-                raise ConfigError(f"cgpdm.{name}={value!r} must be positive")
+            if not isinstance(value, int | float) or not 0 < value < math.inf:
+                raise ConfigError(f"cgpdm.{name}={value!r} must be positive (and finite)")
+        for name, flag in (
+            ("train_latent_scales", train_latent_scales),
+            ("train_dynamics_scales", train_dynamics_scales),
+            ("center_observations", center_observations),
+        ):
+            if not isinstance(flag, bool):
+                raise ConfigError(f"cgpdm.{name}={flag!r} must be true or false")
         self.latent_dim = latent_dim
         self._latent_kernel_factory = latent_kernel
         self._dynamics_kernel_factory = dynamics_kernel
@@ -156,6 +165,14 @@ class CGPDM(nn.Module):
         self.log_dynamics_noise = nn.Parameter(torch.tensor(init["dynamics_noise"]).log().double())
         self.to(observations.device)  # kernels and scales join the data's device
         self._posterior = None
+
+    def check_kernels(self, control_dim: int) -> None:
+        """Build both kernels once on their input shapes (with ``control_dim`` controls),
+        so that a bad kernel value is refused in one line before any data are made."""
+        self._latent_kernel_factory(KernelShape(num_outputs=1, input_dim=self.latent_dim))
+        self._dynamics_kernel_factory(
+            KernelShape(num_outputs=1, input_dim=self.latent_dim + control_dim)
+        )
 
     def check_observation_dim(self, observation_dim: int) -> None:
         """One-line :class:`ConfigError` unless d < D (before any data are simulated)."""

@@ -14,6 +14,7 @@ from torch import nn
 
 from mcpilco.errors import ConfigError
 from mcpilco.estimators.base import StateEstimator
+from mcpilco.extension import ExtensionPoint
 from mcpilco.gp.exact import ExactGP
 from mcpilco.gp.fit import MarginalLikelihoodFit
 from mcpilco.gp.reduction import check_reduction, reduce_dataset
@@ -34,7 +35,7 @@ class FitReport:
     seconds: float
 
 
-class ModelStructure(nn.Module, ABC):
+class ModelStructure(ExtensionPoint, nn.Module, ABC):
     """A learned one-step model: particles ``[M, S]`` × actions ``[M, d_u]`` → particles.
 
     A *particle* is whatever the structure propagates (the state ``[M, d_x]`` for full-state

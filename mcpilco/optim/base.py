@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 import torch
 
 from mcpilco.errors import ConfigError
+from mcpilco.extension import ExtensionPoint
 
 if TYPE_CHECKING:
     from mcpilco.optim.rollout import ParticleRollout
@@ -61,7 +62,7 @@ def require_positive_integers(**values: object) -> None:
             raise ConfigError(f"optimizer.{key} must be a positive integer, got {value!r}")
 
 
-class PolicySearch(ABC):
+class PolicySearch(ExtensionPoint, ABC):
     """A policy-search algorithm (config group ``algorithm``, node ``optimizer``): MC-PILCO's
     Adam on particles, PILCO's moment matching, Black-DROPS's CMA-ES. Subclass it for your
     own and name it with ``optimizer._target_=my_pkg.MySearch``.

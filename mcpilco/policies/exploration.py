@@ -7,6 +7,7 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from mcpilco.errors import ConfigError
+from mcpilco.extension import ExtensionPoint
 
 
 def _signal():  # type: ignore[no-untyped-def]
@@ -16,7 +17,7 @@ def _signal():  # type: ignore[no-untyped-def]
     return signal
 
 
-class ExplorationController(ABC):
+class ExplorationController(ExtensionPoint, ABC):
     """A controller for the exploration rollout (trial 0). Subclasses take ``u_max``,
     ``action_dim`` and ``rng`` (the system's generator), and ``system`` if they need it.
     Subclass this for your own (``exploration._target_=my_pkg.MyExploration``)."""

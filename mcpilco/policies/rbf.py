@@ -9,6 +9,7 @@ import torch
 from torch import nn
 
 from mcpilco.errors import ConfigError
+from mcpilco.extension import ExtensionPoint
 from mcpilco.moments.rbf import rbf_moments
 from mcpilco.moments.trig import sine_saturation
 from mcpilco.policies.rbf_network import SquashedRBFFunction, squashed_rbf
@@ -17,7 +18,7 @@ ANGLE_CENTRES = ("uniform", "circle")
 SQUASHES = ("tanh", "sine")
 
 
-class SquashedRBFPolicy(nn.Module):
+class SquashedRBFPolicy(ExtensionPoint, nn.Module):
     """π(x) = u_max tanh(Σ_i w_i exp(−‖(a_i − x)/ℓ‖²) / u_max), one output per action.
 
     One diagonal length-scale vector ℓ is shared by all basis functions. Initialisation

@@ -8,9 +8,9 @@ from collections.abc import Sequence
 import numpy as np
 import torch
 
+from mcpilco.checks import non_negative, positive
 from mcpilco.errors import ConfigError
 from mcpilco.systems.base import Controller, OdeSystem
-from mcpilco.systems.checks import non_negative, positive
 from mcpilco.trajectory import Trajectory
 
 ROLLING = 5.0 / 7.0

@@ -10,8 +10,9 @@ import numpy as np
 import torch
 from scipy.integrate import solve_ivp
 
+from mcpilco.checks import positive, require_finite
 from mcpilco.errors import ConfigError, NonFiniteError, SimulationError
-from mcpilco.systems.checks import positive, require_finite
+from mcpilco.extension import ExtensionPoint
 from mcpilco.systems.sensors import Sensors
 from mcpilco.trajectory import Trajectory
 
@@ -22,7 +23,7 @@ class Controller(Protocol):
     def __call__(self, measurement: np.ndarray, step: int) -> np.ndarray: ...
 
 
-class MechanicalSystem(ABC):
+class MechanicalSystem(ExtensionPoint, ABC):
     """A plant with generalised positions ``q`` and velocities ``q̇``.
 
     The state is ordered as the subclass says; ``position_indices[k]`` and

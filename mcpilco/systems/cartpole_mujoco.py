@@ -6,8 +6,8 @@ from typing import Any
 
 import numpy as np
 
+from mcpilco.checks import positive
 from mcpilco.systems.cartpole import CartPole
-from mcpilco.systems.checks import positive
 from mcpilco.systems.mujoco_sim import MujocoSimulation
 
 CARTPOLE_MJCF = """

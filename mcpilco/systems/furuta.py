@@ -8,8 +8,8 @@ from typing import Any
 import numpy as np
 import torch
 
+from mcpilco.checks import non_negative, positive
 from mcpilco.systems.base import OdeSystem
-from mcpilco.systems.checks import non_negative, positive
 from mcpilco.trajectory import Trajectory
 
 BARRIER = 0.75 * np.pi

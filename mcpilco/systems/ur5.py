@@ -8,10 +8,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from mcpilco.checks import non_negative, positive
 from mcpilco.errors import ConfigError
 from mcpilco.policies.exploration import ExplorationController
 from mcpilco.systems.base import MechanicalSystem
-from mcpilco.systems.checks import non_negative, positive
 from mcpilco.systems.mujoco_sim import MujocoSimulation
 from mcpilco.systems.ur5_model import dh_forward_kinematics, ur5_mjcf
 from mcpilco.trajectory import Trajectory

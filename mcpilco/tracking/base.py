@@ -7,10 +7,11 @@ from typing import Any
 
 import numpy as np
 
+from mcpilco.extension import ExtensionPoint
 from mcpilco.trajectory import Trajectory
 
 
-class TrialObserver:
+class TrialObserver(ExtensionPoint):
     """No-op hooks; a logger overrides the ones it needs. Called in this order per trial:
     ``model_fitted`` → ``optimized`` → ``particles_predicted`` → ``rollout`` →
     ``trial_finished`` (the exploration rollout, trial 0, has only the last two)."""
