@@ -84,7 +84,7 @@ def check_reference(reference: DictConfig, num_joints: int) -> None:
     )
     settle = number("reference.settle", reference.settle, minimum=0)
     if settle >= duration:
-        raise ConfigError(f"reference.settle={settle:g} must be < reference.duration={duration:g}")
+        raise ConfigError(f"reference.settle={settle!r} must be < reference.duration={duration!r}")
     number("reference.threshold_deg", reference.threshold_deg, above=0)
 
 

@@ -198,6 +198,25 @@ def test_generating_the_data_sets_twice_keeps_one_row_each(tmp_path: Path) -> No
     assert replay.returncode == 0 and "replayed sequences [0, 1, 2, 3, 4]" in replay.stderr
 
 
+def test_a_damaged_control_model_is_refused_in_one_line(tmp_path: Path) -> None:
+    """A model.json holding [] and a gp.pt that does not fit the model (item 7)."""
+    import torch
+
+    models = tmp_path / "m"
+    arguments = [*CONTROL_TINY, "reference.seeds=[0]", f"model_dir={models}"]
+    assert run("runners.control", *arguments, f"hydra.run.dir={tmp_path / 'a'}").returncode == 0
+    record = (models / "model.json").read_text()
+    (models / "model.json").write_text("[]")
+    listed = run("runners.control", *arguments, f"hydra.run.dir={tmp_path / 'b'}")
+    assert listed.returncode == 2 and len(errors(listed)) == 1
+    assert "model.json holds a list" in errors(listed)[0] and "Traceback" not in output(listed)
+    (models / "model.json").write_text(record)
+    torch.save({"gp.something_else": torch.zeros(3)}, models / "gp.pt")
+    other = run("runners.control", *arguments, f"hydra.run.dir={tmp_path / 'c'}")
+    assert other.returncode == 1 and len(errors(other)) == 1
+    assert "gp.pt does not fit the model" in errors(other)[0] and "Traceback" not in output(other)
+
+
 # ------------------------------------------------- 4. a kill never breaks the data cache
 def test_a_half_written_data_set_is_simulated_again(tmp_path: Path, cgpdm_run: Path) -> None:
     cache = tmp_path / "data"

@@ -176,6 +176,11 @@ def refused(cfg: DictConfig, key: str, value: Any, prepare: Any) -> str:
     message = str(error.value)
     assert "\n" not in message, message
     assert re.sub(r"\[\d+\]", "", key).rsplit(".", 1)[-1] in message, message  # names the key
+    items = value if isinstance(value, list) else []  # a list's bad entry may be named alone
+    shown = [repr(v) for v in [value, *items]] + [
+        f"{float(v)}" for v in [value, *items] if isinstance(v, int | float)
+    ]
+    assert any(text in message for text in shown), message  # and the value
     return message
 
 
