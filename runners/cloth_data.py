@@ -10,11 +10,9 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from mcpilco.build import make
-from mcpilco.checks import integer, number, numbers
 from mcpilco.cloth import ClothDataset, ClothParameters, ClothSimulation, Excitation
 from mcpilco.cloth.dataset import generate
 from mcpilco.cloth.store import stability_report
-from mcpilco.errors import ConfigError
 from mcpilco.run_contract import RunContract
 from mcpilco.safe_config import check_targets
 from mcpilco.tracking import McapLogger
@@ -26,14 +24,11 @@ log = logging.getLogger("mcpilco.cgpdm")
 
 
 def excitation_from(cfg: DictConfig) -> Excitation:
-    """``excitation.*`` checked (one-line errors naming the key) and built."""
+    """``excitation.*`` as an :class:`Excitation` (its keys checked by
+    :func:`runners.cgpdm_checks.check_cgpdm_config` first)."""
     node = cfg.excitation
-    amplitude = number("excitation.amplitude", node.amplitude, above=0)
-    low, high = numbers("excitation.frequency_range", node.frequency_range, length=2)
-    if not 0 < low <= high:
-        raise ConfigError(f"excitation.frequency_range={[low, high]} must be 0 < low <= high")
-    samples = integer("excitation.num_samples", node.num_samples, minimum=3)
-    return Excitation(amplitude, (low, high), samples)
+    low, high = (float(f) for f in node.frequency_range)
+    return Excitation(float(node.amplitude), (low, high), int(node.num_samples))
 
 
 def sequence_trajectory(

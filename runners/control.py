@@ -20,7 +20,6 @@ import torch
 from omegaconf import DictConfig, OmegaConf
 
 from mcpilco.build import make
-from mcpilco.checks import integer, optional_integer
 from mcpilco.control import (
     GPInverseDynamics,
     SineReference,
@@ -84,13 +83,11 @@ class ControlSetup:
 def prepare(cfg: DictConfig) -> ControlSetup:
     """Check every key and build the robot and controller; no data, fit or tracking yet."""
     check_targets(cfg)
-    integer("seed", cfg.seed)
-    optional_integer("threads", cfg.get("threads"))
-    if cfg.get("threads") is not None:
-        torch.set_num_threads(int(cfg.threads))
     robot: TorqueControlledRobot = make(cfg.robot)
     controller: TrackingController = make(cfg.controller)
     check_control_config(cfg, robot.num_joints, robot.dt)
+    if cfg.get("threads") is not None:
+        torch.set_num_threads(int(cfg.threads))
     if controller.needs_model:
         new_model(cfg, robot)  # the kernel and GP settings are checked here, before any data
     return ControlSetup(robot, controller)

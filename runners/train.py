@@ -11,7 +11,6 @@ from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
 from mcpilco.build import Experiment, build, make
-from mcpilco.errors import ConfigError
 from mcpilco.optim.policy_optimizer import StepInfo
 from mcpilco.run_contract import TRAIN, RunContract
 from mcpilco.run_storage import RESUME_OVERRIDES
@@ -20,10 +19,13 @@ from mcpilco.tracking.base import TrialObserver
 from mcpilco.tracking.metadata import run_metadata
 from mcpilco.trial_loop import TrialLoop
 from runners.job import Runner, run_job
+from runners.options import rerun_mode
 from runners.process import keep_freed_memory, log_torch_warnings_to_files
 
 CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.train")
+RERUN_MODES = ("off", "save", "connect")
+"""``tracking.rerun`` of a training run (it can stream to a live viewer)."""
 
 
 def build_observers(
@@ -34,7 +36,7 @@ def build_observers(
     observers: list[TrialObserver] = []
     if tracking.get("mcap") is not None:
         observers.append(make(tracking.mcap)(run_dir=run_dir))
-    mode = rerun_mode(cfg)
+    mode = rerun_mode(cfg, RERUN_MODES)
     if mode != "off":
         stream = make(tracking.rerun_stream)
         observers.append(
@@ -43,18 +45,9 @@ def build_observers(
     return observers
 
 
-def rerun_mode(cfg: DictConfig) -> str:
-    """``tracking.rerun``: off, save or connect (one-line error otherwise)."""
-    mode = (cfg.get("tracking") or {}).get("rerun", "off")
-    mode = "off" if mode in (None, False) else str(mode)
-    if mode not in ("off", "save", "connect"):
-        raise ConfigError(f"tracking.rerun={mode!r} must be off, save or connect")
-    return mode
-
-
 def prepare(cfg: DictConfig) -> Experiment:
     """Every component built and checked (:func:`mcpilco.build.build`), before any work."""
-    rerun_mode(cfg)
+    rerun_mode(cfg, RERUN_MODES)
     return build(cfg)
 
 

@@ -80,7 +80,7 @@ CGPDM_BAD: dict[str, list[Any]] = {
     "data.num_sequences": [1, -1, 1.5, "abc"],
     "data.num_test": [*COUNT_BAD, 50],
     "data.num_train": [*COUNT_BAD, 41],
-    "data.dir": ["", 5, "/etc/hostname/data"],  # under a file
+    "data.dir": ["", 5, "A_FILE/data"],  # under a file (made by the test)
     "data.path": ["no/such/file.npz", 5],
     "data.csv_dir": ["no/such/folder", 5],
     "data.csv_duplicate_controls": BOOL_BAD,
@@ -199,6 +199,9 @@ def test_cgpdm_refuses_every_bad_value_before_any_work(
     from runners.cgpdm import prepare
 
     cfg = with_value(composed("cgpdm"), "data.dir", str(tmp_path / "data"))
+    if isinstance(value, str) and value.startswith("A_FILE"):
+        (tmp_path / "a_file").write_text("")
+        value = value.replace("A_FILE", str(tmp_path / "a_file"))
     cfg = with_value(cfg, key, value)
     refused(cfg, key, value, prepare)
     assert not (tmp_path / "data").exists()  # nothing simulated, nothing made
