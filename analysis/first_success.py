@@ -9,12 +9,16 @@ between two configurations is decided only as far as both runs were observed.
 
 from __future__ import annotations
 
+import argparse
 import math
+import sys
 from itertools import combinations
+from pathlib import Path
 
 import pandas as pd
 
 from analysis.stats import rate_with_interval, sign_test, wilson_interval
+from analysis.sweep import load_sweep
 
 
 def first_successes(trials: pd.DataFrame) -> pd.DataFrame:
@@ -157,3 +161,29 @@ def paired_markdown(runs: pd.DataFrame, min_seeds: int = 2) -> str:
         ]
         sections.append("\n".join(lines))
     return "\n".join(sections)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m analysis.first_success RUNS_DIR... [--csv OUT]``: solved by trial per
+    configuration (with Wilson intervals) and, per pair of configurations on the same
+    seeds, which solved first and the sign test — the tally of an ``analysis.campaign``."""
+    parser = argparse.ArgumentParser(description="Solved-by-trial counts and paired seed comparisons.")
+    parser.add_argument("paths", nargs="+", type=Path, help="run directories or folders holding them")
+    parser.add_argument("--csv", type=Path, default=None, help="also write the per-run table here")
+    args = parser.parse_args(argv)
+    trials, failed = load_sweep(args.paths)
+    if trials.empty or "success" not in trials.columns:
+        sys.stderr.write(f"no finished trials with a success criterion under {', '.join(map(str, args.paths))}\n")
+        return 2
+    runs = first_successes(trials)
+    if args.csv is not None:
+        runs.to_csv(args.csv, index=False)
+    unfinished = runs[runs["first_success"].isna()]
+    sys.stdout.write(f"{len(runs)} runs; unsolved so far: {len(unfinished)}; failed: {len(failed)}\n\n")
+    sys.stdout.write(solved_markdown(solved_by_trial(runs)) + "\n")
+    sys.stdout.write(paired_markdown(runs))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
