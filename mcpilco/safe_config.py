@@ -101,7 +101,9 @@ def check_module_origin(top: str, key: str, target: str, untrusted: Path | None 
             f"{key}={target!r} is refused: {location} lies inside {untrusted}, the directory "
             "being read; mcpilco never runs code from a run directory"
         )
-    if any(_inside(location, root) for root in _implicit_roots()) and not _installed(top):
+    # the sys.path entry that provides it: a module's folder, a package's parent folder
+    entry = location.parent if spec.submodule_search_locations is None else location.parent.parent
+    if entry in _implicit_roots() and not _installed(top):
         raise RefusedTargetError(
             f"{key}={target!r} is refused: {location} imports only because it lies in the "
             "working directory; install the plug-in or put its folder on PYTHONPATH"

@@ -86,7 +86,13 @@ class X(CartPole):
 """
 
 
-@pytest.mark.parametrize("packages", [False, True], ids=["plain folders", "with __init__"])
+@pytest.mark.parametrize(
+    "packages",
+    [
+        pytest.param(False, id="plain folders"),
+        pytest.param(True, id="with __init__", marks=pytest.mark.slow),  # slow: CI time
+    ],
+)
 def test_a_payload_beside_a_run_never_runs(tmp_path: Path, train_run: Path, packages: bool) -> None:
     """A run copied to docs/results/r of the working directory, naming a payload module
     beside it: evaluate, resume and replay refuse it in one line and the payload never
@@ -127,6 +133,10 @@ def test_a_plug_in_put_on_pythonpath_on_purpose_still_loads(tmp_path: Path) -> N
         env={k: v for k, v in os.environ.items() if k != "PYTHONPATH"},
     )  # fmt: skip
     assert refused.returncode != 0 and "lies in the working directory" in refused.stderr
+    below = subprocess.run(  # a PYTHONPATH folder below the working directory is explicit too
+        [sys.executable, "-c", probe], cwd=tmp_path, capture_output=True, text=True, env=where
+    )
+    assert below.returncode == 0 and "my_plant.X" in below.stdout, below.stderr
     (tmp_path / "loaded").unlink()
     assert not (tmp_path / "loaded").exists()
 
@@ -198,6 +208,7 @@ def test_generating_the_data_sets_twice_keeps_one_row_each(tmp_path: Path) -> No
     assert replay.returncode == 0 and "replayed sequences [0, 1, 2, 3, 4]" in replay.stderr
 
 
+@pytest.mark.slow  # CI time (make test-slow runs it)
 def test_a_damaged_control_model_is_refused_in_one_line(tmp_path: Path) -> None:
     """A model.json holding [] and a gp.pt that does not fit the model (item 7)."""
     import torch
@@ -235,7 +246,7 @@ def test_a_half_written_data_set_is_simulated_again(tmp_path: Path, cgpdm_run: P
 
 
 # ------------------------- 5. resuming another runner's directory touches nothing there
-@pytest.mark.parametrize("runner", ["cgpdm", "control"])
+@pytest.mark.parametrize("runner", ["cgpdm", pytest.param("control", marks=pytest.mark.slow)])
 def test_train_resume_of_another_kind_of_run_is_refused_untouched(
     tmp_path: Path, cgpdm_run: Path, runner: str
 ) -> None:
@@ -265,7 +276,7 @@ def test_cgpdm_closes_each_sequence_log_chunk_before_its_row(
 ) -> None:
     import numpy as np
 
-    import runners.cgpdm as cgpdm
+    import runners.cgpdm_job as cgpdm
     from mcpilco.run_contract import CGPDM, KINDS, RunContract
     from mcpilco.run_storage import RunDirectory
 
@@ -394,7 +405,11 @@ def test_a_second_ctrl_c_exits_at_once_without_a_traceback(tmp_path: Path) -> No
 
 
 @pytest.mark.parametrize(
-    "content", ["", "not,a\n\x00\x01,table,at,all\n"], ids=["empty", "corrupt"]
+    "content",
+    [
+        pytest.param("", id="empty"),
+        pytest.param("not,a\n\x00\x01,table,at,all\n", id="corrupt", marks=pytest.mark.slow),
+    ],
 )
 def test_an_empty_or_corrupt_summary_is_named_in_one_line(
     tmp_path: Path, train_run: Path, content: str
@@ -433,6 +448,7 @@ def test_one_bad_predictions_file_does_not_stop_the_cgpdm_report(
     assert len(pd.read_csv(tmp_path / "o" / "models.csv")) == 1
 
 
+@pytest.mark.slow  # CI time (make test-slow runs it)
 def test_two_identical_sweeps_on_one_directory_both_succeed(tmp_path: Path) -> None:
     command = [
         sys.executable, "-m", "runners.cgpdm", "--multirun", *CGPDM_TINY, "seed=0,1",
