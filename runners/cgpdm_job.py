@@ -23,7 +23,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import hydra
 import numpy as np
 import torch
 from omegaconf import DictConfig, OmegaConf
@@ -50,10 +49,9 @@ from runners.cloth_data import (
     prepare_generation,
     sequence_trajectory,
 )
-from runners.job import Runner, run_job
+from runners.job import Runner
 from runners.options import rerun_mode
 
-CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.cgpdm")
 
 
@@ -146,6 +144,14 @@ def work(cfg: DictConfig, setup: CGPDMSetup, contract: RunContract, finished: li
         ),
     )
     setup.model.set_data(training_data(training, setup.device))
+    log.info(
+        "training the %s CGPDM on %d sequences (R=%s, draw %d): %d outer L-BFGS steps",
+        cfg.cgpdm_name,
+        len(train_rows),
+        cfg.data.range_deg,
+        cfg.seed,
+        cfg.train.steps,
+    )
     seconds, loss = train_model(setup, storage)
     log.info(
         "trained on %d sequences (%d points) in %.1f s, loss %.4f",
@@ -255,7 +261,7 @@ def log_test_sequences(
             observer.close()
 
 
-def _runner_for(cfg: DictConfig) -> Runner[Any]:
+def runner_for(cfg: DictConfig) -> Runner[Any]:
     return GENERATE_RUNNER if cfg.get("mode") == "generate" else CGPDM_RUNNER
 
 
@@ -268,14 +274,3 @@ GENERATE_RUNNER: Runner[Any] = Runner(
     prepare=prepare_generation,
     work=generate_datasets,
 )
-
-
-@hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="cgpdm")
-def main(cfg: DictConfig) -> None:
-    """Hydra entry point: one job under the run-directory contract (:mod:`runners.job`);
-    ``mode`` picks the kind of run (a bad ``mode`` is refused by the check of every key)."""
-    run_job(cfg, _runner_for(cfg))
-
-
-if __name__ == "__main__":
-    main()

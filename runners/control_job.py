@@ -14,7 +14,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import hydra
 import numpy as np
 import torch
 from omegaconf import DictConfig, OmegaConf
@@ -37,10 +36,9 @@ from mcpilco.tracking import McapLogger
 from mcpilco.tracking.metadata import run_metadata
 from mcpilco.trajectory import Trajectory
 from runners.control_checks import check_control_config
-from runners.job import Runner, run_job
+from runners.job import Runner
 from runners.options import rerun_mode
 
-CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.control")
 
 
@@ -122,7 +120,13 @@ def work(cfg: DictConfig, setup: ControlSetup, contract: RunContract, finished: 
     finally:
         for observer in observers:
             observer.close()
-    log.info("summary:\n%s", storage.summary().to_string(index=False))
+    table = storage.summary()
+    columns = [c for c in ("seed", "success", "diverged", "latency_p99_ms") if c in table.columns]
+    log.info(
+        "summary (every column: %s):\n%s",
+        storage.path / "summary.csv",
+        table[columns].to_string(index=False, float_format=lambda v: f"{v:.4g}"),
+    )
 
 
 def run_reference(
@@ -169,13 +173,3 @@ def run_reference(
 CONTROL_RUNNER: Runner[ControlSetup] = Runner(
     kind=CONTROL, resume_overrides=("threads",), prepare=prepare, work=work
 )
-
-
-@hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="control")
-def main(cfg: DictConfig) -> None:
-    """Hydra entry point: one job under the run-directory contract (:mod:`runners.job`)."""
-    run_job(cfg, CONTROL_RUNNER)
-
-
-if __name__ == "__main__":
-    main()

@@ -6,7 +6,6 @@ import logging
 from pathlib import Path
 from typing import Any
 
-import hydra
 from omegaconf import DictConfig, OmegaConf
 from tqdm import tqdm
 
@@ -18,11 +17,10 @@ from mcpilco.systems.base import MechanicalSystem
 from mcpilco.tracking.base import TrialObserver
 from mcpilco.tracking.metadata import run_metadata
 from mcpilco.trial_loop import TrialLoop
-from runners.job import Runner, run_job
+from mcpilco.trial_report import SUMMARY_COLUMNS
+from runners.job import Runner
 from runners.options import rerun_mode
-from runners.process import keep_freed_memory, log_torch_warnings_to_files
 
-CONFIG_DIR = str(Path(__file__).resolve().parent.parent / "conf")
 log = logging.getLogger("mcpilco.train")
 RERUN_MODES = ("off", "save", "connect")
 """``tracking.rerun`` of a training run (it can stream to a live viewer)."""
@@ -75,7 +73,14 @@ def work(
         if trial not in bars:
             for bar in bars.values():
                 bar.close()
-            bars[trial] = tqdm(desc=f"trial {trial}/{experiment.num_trials}", unit="step")
+            budget = experiment.components.optimizer.step_budget(trial)
+            bars[trial] = tqdm(
+                desc=f"trial {trial}/{experiment.num_trials}",
+                total=budget,
+                unit="step",
+                bar_format=STEP_BAR if budget else None,
+                dynamic_ncols=True,
+            )
         bars[trial].update(1)
         bars[trial].set_postfix(
             J=f"{info.cost:.3f}", p_d=info.dropout, lr=info.learning_rate, T=info.horizon
@@ -86,23 +91,20 @@ def work(
     finally:
         for bar in bars.values():
             bar.close()
-    log.info("summary:\n%s", storage.summary().to_string(index=False))
+    table = storage.summary()
+    columns = [c for c in SUMMARY_COLUMNS if c in table.columns]
+    log.info(
+        "summary (every column: %s):\n%s",
+        storage.path / "summary.csv",
+        table[columns].to_string(index=False, float_format=lambda v: f"{v:.4g}"),
+    )
+
+
+STEP_BAR = "{desc}: {n_fmt}/{total_fmt} steps at most [{elapsed}<{remaining} if all run{postfix}]"
+"""The bar of a search with a step budget: the monitoring signal may stop it earlier, so the
+estimate is an upper bound."""
 
 
 TRAIN_RUNNER: Runner[Experiment] = Runner(
     kind=TRAIN, resume_overrides=RESUME_OVERRIDES, prepare=prepare, work=work
 )
-
-
-@hydra.main(version_base="1.3", config_path=CONFIG_DIR, config_name="train")
-def main(cfg: DictConfig) -> None:
-    """Hydra entry point: one job under the run-directory contract (:mod:`runners.job`).
-    A failed or interrupted run leaves ``failed.txt`` in its directory; in a sweep the
-    error is re-raised so Hydra records the job as failed and runs the others."""
-    keep_freed_memory()
-    log_torch_warnings_to_files()
-    run_job(cfg, TRAIN_RUNNER)
-
-
-if __name__ == "__main__":
-    main()

@@ -164,7 +164,7 @@ def test_building_an_experiment_does_not_load_cma() -> None:
     """cma loads scipy.stats and matplotlib (~1.2 s of every runner's start): only a
     Black-DROPS search that runs imports it."""
     probe = (
-        "import sys, mcpilco.build, mcpilco.optim, runners.train; "
+        "import sys, mcpilco.build, mcpilco.optim, runners.train_job; "
         "print(sorted(m for m in ('cma', 'matplotlib.pyplot') if m in sys.modules))"
     )
     result = subprocess.run(

@@ -63,7 +63,7 @@ def logged_trials(path: Path) -> list[int]:
     return read_run_log(path).trials["trial"].tolist()
 
 
-@pytest.mark.parametrize("when", ["before", "after"])
+@pytest.mark.parametrize("when", ["before", pytest.param("after", marks=pytest.mark.slow)])
 def test_a_kill_around_the_summary_row_never_loses_a_finished_trial_from_the_log(
     tmp_path: Path, when: str
 ) -> None:

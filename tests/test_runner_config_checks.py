@@ -186,7 +186,7 @@ def refused(cfg: DictConfig, key: str, value: Any, prepare: Any) -> str:
 
 @pytest.mark.parametrize(("key", "value"), cases(CONTROL_BAD), ids=repr)
 def test_control_refuses_every_bad_value_before_any_work(key: str, value: Any) -> None:
-    from runners.control import prepare
+    from runners.control_job import prepare
 
     cfg = with_value(composed("control"), key, value)
     refused(cfg, key, value, prepare)
@@ -196,7 +196,7 @@ def test_control_refuses_every_bad_value_before_any_work(key: str, value: Any) -
 def test_cgpdm_refuses_every_bad_value_before_any_work(
     key: str, value: Any, tmp_path: Path
 ) -> None:
-    from runners.cgpdm import prepare
+    from runners.cgpdm_job import prepare
 
     cfg = with_value(composed("cgpdm"), "data.dir", str(tmp_path / "data"))
     if isinstance(value, str) and value.startswith("A_FILE"):
@@ -208,8 +208,8 @@ def test_cgpdm_refuses_every_bad_value_before_any_work(
 
 
 def test_the_defaults_pass_the_checks(tmp_path: Path) -> None:
-    from runners.cgpdm import prepare as prepare_cgpdm
-    from runners.control import prepare as prepare_control
+    from runners.cgpdm_job import prepare as prepare_cgpdm
+    from runners.control_job import prepare as prepare_control
 
     prepare_control(with_value(composed("control"), "model_dir", str(tmp_path / "m")))
     prepare_cgpdm(with_value(composed("cgpdm"), "data.dir", str(tmp_path / "d")))
