@@ -29,6 +29,7 @@ from mcpilco.seeding import RandomStreams
 from mcpilco.systems.base import Controller, MechanicalSystem
 from mcpilco.tracking.base import TrialObserver
 from mcpilco.trajectory import Trajectory
+from mcpilco.trial_report import trial_line
 
 log = logging.getLogger(__name__)
 
@@ -125,6 +126,7 @@ class TrialLoop:
         for observer in self.observers:
             observer.run_started(self.metadata, first - 1)
         if first == 0:
+            log.info("trial 0: exploration rollout on the system")
             start = time.perf_counter()
             exploration = self._interact(self.c.exploration(rng=self.streams.system), 0)
             table = self._record(0, exploration, {"rollout_seconds": time.perf_counter() - start})
@@ -133,7 +135,25 @@ class TrialLoop:
             first = 1
         table = self.storage.summary()
         for trial in range(first, self.num_trials + 1):
+            log.info(
+                "trial %d/%d: fitting the GPs on %d rollouts",
+                trial,
+                self.num_trials,
+                len(self.trajectories),
+            )
             fit = self._learn_model(trial)
+            log.info(
+                "trial %d/%d: GPs fitted on n=%d samples (kept %d) in %.1f s; "
+                "optimising the policy%s",
+                trial,
+                self.num_trials,
+                fit.num_samples,
+                fit.num_kept,
+                fit.seconds,
+                " (compiling the particle step first: 5-15 s per graph the first time, then cached)"
+                if self.c.compile
+                else "",
+            )
             start = time.perf_counter()
             result = self.c.optimizer.optimize(
                 self.rollout,
@@ -301,5 +321,5 @@ class TrialLoop:
         for observer in self.observers:
             observer.trial_finished(trial, row)
         table = self.storage.append_summary(row)
-        log.info("trial %d: %s", trial, {k: row[k] for k in row if k != "timestamp"})
+        log.info("%s", trial_line(row, self.num_trials))
         return table

@@ -126,9 +126,19 @@ def fit_and_save(
     }
     sets = {}
     for name in ("train", "test"):
+        log.info(
+            "collecting the %s data: %.0f s of PD tracking on the simulated robot",
+            name,
+            data_cfg.duration,
+        )
         rng = np.random.default_rng(data_cfg[f"{name}_seed"])
         sets[name] = collect(robot, rng, **settings)
         storage.save_arrays(f"data/{name}.npz", sets[name].as_arrays())
+    log.info(
+        "fitting the GP inverse dynamics on %d samples: hyperparameters by ML-II, then the "
+        "posterior (minutes on 2 cores at the default sizes)",
+        len(sets["train"].inputs),
+    )
     model = new_model(cfg, robot)
     report = model.fit(sets["train"], torch.Generator().manual_seed(int(cfg.seed)))
     test: InverseDynamicsData = sets["test"]

@@ -83,6 +83,11 @@ class PolicySearch(ExtensionPoint, ABC):
     ) -> OptimizationResult:
         """Improve ``rollout.policy`` in place on the fitted ``rollout.model``."""
 
+    def step_budget(self, trial: int) -> int | None:
+        """The most optimisation steps (``on_step`` calls) trial ``trial`` may take, for a
+        progress bar's total and time estimate; None where the search does not know."""
+        return None
+
     def check(self, rollout: ParticleRollout) -> None:  # noqa: B027 - optional hook
         """Refuse, with a one-line :class:`~mcpilco.errors.ConfigError` naming the config
         key, a model, kernel, policy or cost this search cannot work with (called before

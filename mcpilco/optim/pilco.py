@@ -148,6 +148,10 @@ class PilcoSearch(PolicySearch):
             rollout.horizon,
         )
 
+    def step_budget(self, trial: int) -> int:
+        """At most ``max_evaluations`` objective evaluations (one ``on_step`` each)."""
+        return self.max_evaluations
+
     def optimize(
         self,
         rollout: ParticleRollout,

@@ -107,6 +107,10 @@ class PolicyOptimizer(PolicySearch):
             for fraction, share in zip(self.horizon_stages, shares, strict=True)
         ]
 
+    def step_budget(self, trial: int) -> int:
+        """N_opt of trial ``trial`` (the monitoring signal may stop it earlier)."""
+        return self.max_steps_first_trial if trial <= 1 else self.max_steps
+
     def optimize(
         self,
         rollout: ParticleRollout,
