@@ -27,7 +27,7 @@ from pathlib import Path
 import pandas as pd
 from omegaconf import OmegaConf
 
-from analysis.thesis import kernel_label
+from analysis.thesis import budget_tag, kernel_label
 from mcpilco.errors import RunFileError
 from mcpilco.run_contract import TRAIN, find_runs
 from mcpilco.run_storage import RunDirectory
@@ -51,7 +51,8 @@ def load_run(path: Path) -> dict[str, object]:
         first = pd.Series([], dtype=int)
     record: dict[str, object] = {
         "run": str(path),
-        "kernel": kernel_label(config["kernel"]),
+        "kernel": kernel_label(config["kernel"])
+        + (f" [{tag}]" if (tag := budget_tag(config)) else ""),
         "model": str(config["model"]["_target_"]).rsplit(".", 1)[-1],
         "seed": config["seed"],
         "trials_done": int(summary["trial"].max()),

@@ -11,7 +11,7 @@ from hydra.core.global_hydra import GlobalHydra
 from omegaconf import OmegaConf
 
 from analysis.study_tags import distinguished_labels, flatten
-from analysis.thesis import configuration_label
+from analysis.thesis import budget_tag, configuration_label
 
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "conf"
 
@@ -48,6 +48,9 @@ def load_sweep(paths: Iterable[Path]) -> tuple[pd.DataFrame, list[Path]]:
         configs,
         current_defaults() if configs else None,
     )
+    for run, config in configs.items():  # after the runs' own differences, the thesis's
+        tag = budget_tag(config)
+        labels[run] += f" [{tag}]" if tag else ""
     rows = []
     for run, summary in summaries.items():
         summary["configuration"] = labels[run]

@@ -83,6 +83,47 @@ def _system_name(config: dict[str, Any]) -> str:
     return str(config["system"]["_target_"]).rsplit(".", 1)[-1]
 
 
+THESIS_CARTPOLE_BUDGET = {
+    "optimizer.num_particles": ("M", 400),
+    "optimizer.max_steps_first_trial": ("N_opt T1", 2000),
+    "optimizer.max_steps": ("N_opt", 4000),
+    "policy.num_basis": ("n_b", 200),
+    "system.trial_duration": ("T (s)", 3.0),
+}
+"""MC-PILCO's cart-pole budget in the thesis (Table 2.1, §2.5): particles, optimisation steps
+(trial 1 and after; the reference code's 2000 for trial 1), basis functions, horizon (s)."""
+
+
+def _leaf(config: dict[str, Any], dotted: str) -> Any:
+    node: Any = config
+    for part in dotted.split("."):
+        if not isinstance(node, dict) or part not in node:
+            return None
+        node = node[part]
+    return node
+
+
+def budget_tag(config: dict[str, Any]) -> str | None:
+    """``not the thesis's budget: M 8, N_opt 4, …`` for an MC-PILCO cart-pole run under the
+    paper protocol whose budget differs from the thesis's (e.g. ``+experiment=smoke``), so its
+    rates are never read as the thesis's setting; None otherwise (other systems and
+    algorithms have their own budgets; ``protocol=quick`` is labelled by its name)."""
+    if _system_name(config) not in CART_POLES:
+        return None
+    if (config.get("protocol") or {}).get("name", "paper") != "paper":
+        return None
+    if config.get("algorithm_name", "mcpilco") != "mcpilco":
+        return None
+    differences = []
+    for key, (symbol, thesis) in THESIS_CARTPOLE_BUDGET.items():
+        value = _leaf(config, key)
+        if value is not None and value != thesis:
+            differences.append(
+                f"{symbol} {value:g}" if isinstance(value, float) else f"{symbol} {value}"
+            )
+    return f"not the thesis's budget: {', '.join(differences)}" if differences else None
+
+
 def configuration_label(config: dict[str, Any]) -> str:
     """Thesis-style name of a run's configuration (everything but the seed that matters
     for the published tables): model structure, kernel, dropout, cost length-scales; other
