@@ -86,6 +86,7 @@ def test_a_run_trains_predicts_logs_and_resumes(tmp_path: Path) -> None:
     assert (reloaded["fit_seconds"] > 0).all()
 
 
+@pytest.mark.slow  # CI time (make test-slow runs it)
 def test_bad_input_is_refused_before_any_simulation(tmp_path: Path) -> None:
     for overrides, message in (
         (
@@ -104,6 +105,7 @@ def test_bad_input_is_refused_before_any_simulation(tmp_path: Path) -> None:
         assert not (tmp_path / "data").exists()  # nothing simulated
 
 
+@pytest.mark.slow  # CI time (make test-slow runs it)
 def test_a_data_set_of_another_cloth_is_refused(tmp_path: Path) -> None:
     made = run_cgpdm(tmp_path, "mode=generate", "data.ranges=[30]", run="gen")
     assert made.returncode == 0, made.stderr[-3000:]

@@ -54,9 +54,13 @@ def cost_and_gradient(
         pytest.param(  # float64, simulated readings (slow: its graphs compile)
             ["+experiment=cartpole_pms", "rollout_dtype=null"], marks=pytest.mark.slow
         ),
-        ["+experiment=cartpole_df", "rollout_dtype=null"],  # float64 derivative-free histories
+        pytest.param(  # float64 derivative-free histories (slow: CI time)
+            ["+experiment=cartpole_df", "rollout_dtype=null"], marks=pytest.mark.slow
+        ),
         [],  # the default, mixed setting (float32 rollout of a float64 GP)
-        ["+experiment=cartpole_pms"],  # mixed, simulated readings, online low-pass estimator
+        pytest.param(  # mixed, simulated readings, online low-pass estimator (slow: CI time)
+            ["+experiment=cartpole_pms"], marks=pytest.mark.slow
+        ),
     ],
     ids=["full_state", "pms", "derivative_free", "mixed", "mixed_pms"],
 )
@@ -236,8 +240,14 @@ def test_a_backward_that_fails_to_compile_replays_the_step_eagerly(
 
 @pytest.mark.parametrize(
     "experiment",
-    [["rollout_dtype=null"], ["+experiment=cartpole_pms", "rollout_dtype=null"]],
-    ids=["state", "readings"],
+    [
+        pytest.param(["rollout_dtype=null"], id="state"),
+        pytest.param(  # slow: CI time
+            ["+experiment=cartpole_pms", "rollout_dtype=null"],
+            id="readings",
+            marks=pytest.mark.slow,
+        ),
+    ],
 )
 def test_several_time_steps_per_compiled_call_give_the_one_step_rollout(
     experiment: list[str],

@@ -251,7 +251,11 @@ def test_bad_input_stops_before_any_simulation(
 
 
 @pytest.mark.parametrize(
-    ("key", "value"), [("robot", "PyBulletArm(other.urdf, 7 joints)"), ("kernel", {})]
+    ("key", "value"),
+    [
+        pytest.param("robot", "PyBulletArm(other.urdf, 7 joints)", marks=pytest.mark.slow),
+        ("kernel", {}),
+    ],
 )
 def test_a_model_fitted_to_another_robot_or_kernel_is_refused(
     tmp_path: Path, key: str, value: object

@@ -10,6 +10,7 @@ import textwrap
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -54,6 +55,7 @@ terms:
 """
 
 
+@pytest.mark.slow  # CI time (make test-slow runs it)
 def test_user_system_and_cost_plug_in(tmp_path: Path) -> None:
     (tmp_path / "my_plants.py").write_text(textwrap.dedent(PENDULUM))
     (tmp_path / "conf" / "system").mkdir(parents=True)

@@ -92,6 +92,7 @@ def test_a_killed_process_does_not_leave_the_lock_stuck(tmp_path: Path) -> None:
         assert (tmp_path / RunDirectory.LOCK_FILE).read_text().startswith(f"pid {os.getpid()}")
 
 
+@pytest.mark.slow  # CI time (make test-slow runs it)
 def test_two_runs_started_together_in_one_directory_never_mix(tmp_path: Path) -> None:
     """Issue 27: both exited 0, the summary held trials [0, 1, 1, 2, 2] and mixed seeds."""
     command = [sys.executable, "-m", "runners.train", *TINY, f"hydra.run.dir={tmp_path}"]
@@ -203,6 +204,7 @@ def test_config_text_that_is_not_a_mapping_fails_in_one_line() -> None:
 
 
 # ---------------------------------------------------------------------------- resume
+@pytest.mark.slow  # CI time (make test-slow runs it)
 def test_resume_keeps_the_saved_number_of_trials(tmp_path: Path) -> None:
     assert (
         run_module("runners.train", *TINY, "num_trials=1", f"hydra.run.dir={tmp_path}").returncode
@@ -279,6 +281,7 @@ def test_ctrl_c_writes_failed_txt_and_keeps_finished_trials(tmp_path: Path) -> N
     assert finished[:2] == [0, 1] and finished == list(range(len(finished)))
 
 
+@pytest.mark.slow  # CI time (make test-slow runs it)
 def test_a_sweep_report_skips_a_refused_run_and_reports_the_others(tmp_path: Path) -> None:
     """analysis.report builds each run's model for the prediction errors: a hostile run is
     skipped with a warning, the other runs are reported, nothing it names runs."""

@@ -102,6 +102,7 @@ def finished_trials(path: Path) -> list[int]:
     return pd.read_csv(summary)["trial"].tolist() if summary.exists() else []
 
 
+@pytest.mark.slow  # CI time (make test-slow runs it)
 def test_sigkill_mid_trial_then_resume_keeps_each_trial_once(tmp_path: Path) -> None:
     run_dir = tmp_path / "run"
     slow_trial_2 = [
