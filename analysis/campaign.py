@@ -120,7 +120,14 @@ def run_campaign(
             target = max(last + 1, 1)
             common = [f"threads={threads}", f"num_trials={target}"]
             if last < 0:
-                argv = [python, "-m", "runners.train", *run.overrides, *common, f"hydra.run.dir={directory}"]
+                argv = [
+                    python,
+                    "-m",
+                    "runners.train",
+                    *run.overrides,
+                    *common,
+                    f"hydra.run.dir={directory}",
+                ]
             else:
                 argv = [python, "-m", "runners.train", f"resume={directory}", *common]
             started = time.monotonic()
@@ -134,7 +141,13 @@ def run_campaign(
                 sink.write(line + "\n")
             log.info("%s", line)
             if status != 0 or new_last <= last:
-                log.warning("%s stopped at trial %d (exit %d): see %s.out", run.name, new_last, status, run.name)
+                log.warning(
+                    "%s stopped at trial %d (exit %d): see %s.out",
+                    run.name,
+                    new_last,
+                    status,
+                    run.name,
+                )
                 break
             last = new_last
         outcome[run.name] = (last, solved)
@@ -146,9 +159,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("runs_dir", type=Path)
     parser.add_argument("--seeds", default="0-9", help="e.g. 0-9 or 0,3,5 (default 0-9)")
     parser.add_argument("--axis", action="append", default=[], help="KEY=V1,V2: one run per value")
-    parser.add_argument("--set", action="append", default=[], dest="fixed", help="KEY=VALUE for every run")
+    parser.add_argument(
+        "--set", action="append", default=[], dest="fixed", help="KEY=VALUE for every run"
+    )
     parser.add_argument("--max-trials", type=int, default=5)
-    parser.add_argument("--all-trials", action="store_true", help="do not stop at the first success")
+    parser.add_argument(
+        "--all-trials", action="store_true", help="do not stop at the first success"
+    )
     parser.add_argument("--threads", type=int, default=1, help="torch threads per run (default 1)")
     parser.add_argument("--dry-run", action="store_true", help="list the runs and stop")
     args = parser.parse_args(argv)
@@ -163,11 +180,22 @@ def main(argv: list[str] | None = None) -> int:
     if args.dry_run:
         for run in runs:
             last, solved = progress(args.runs_dir / run.name)
-            log.info("%s: %s (done through trial %d, solved %s)", run.name, " ".join(run.overrides), last, solved)
+            log.info(
+                "%s: %s (done through trial %d, solved %s)",
+                run.name,
+                " ".join(run.overrides),
+                last,
+                solved,
+            )
         return 0
     outcome = run_campaign(args.runs_dir, runs, args.max_trials, not args.all_trials, args.threads)
     solved = sum(s for _, s in outcome.values())
-    log.info("%d of %d runs solved; tally: python -m analysis.first_success %s", solved, len(outcome), args.runs_dir)
+    log.info(
+        "%d of %d runs solved; tally: python -m analysis.first_success %s",
+        solved,
+        len(outcome),
+        args.runs_dir,
+    )
     return 0
 
 

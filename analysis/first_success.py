@@ -167,19 +167,27 @@ def main(argv: list[str] | None = None) -> int:
     """``python -m analysis.first_success RUNS_DIR... [--csv OUT]``: solved by trial per
     configuration (with Wilson intervals) and, per pair of configurations on the same
     seeds, which solved first and the sign test — the tally of an ``analysis.campaign``."""
-    parser = argparse.ArgumentParser(description="Solved-by-trial counts and paired seed comparisons.")
-    parser.add_argument("paths", nargs="+", type=Path, help="run directories or folders holding them")
+    parser = argparse.ArgumentParser(
+        description="Solved-by-trial counts and paired seed comparisons."
+    )
+    parser.add_argument(
+        "paths", nargs="+", type=Path, help="run directories or folders holding them"
+    )
     parser.add_argument("--csv", type=Path, default=None, help="also write the per-run table here")
     args = parser.parse_args(argv)
     trials, failed = load_sweep(args.paths)
     if trials.empty or "success" not in trials.columns:
-        sys.stderr.write(f"no finished trials with a success criterion under {', '.join(map(str, args.paths))}\n")
+        sys.stderr.write(
+            f"no finished trials with a success criterion under {', '.join(map(str, args.paths))}\n"
+        )
         return 2
     runs = first_successes(trials)
     if args.csv is not None:
         runs.to_csv(args.csv, index=False)
     unfinished = runs[runs["first_success"].isna()]
-    sys.stdout.write(f"{len(runs)} runs; unsolved so far: {len(unfinished)}; failed: {len(failed)}\n\n")
+    sys.stdout.write(
+        f"{len(runs)} runs; unsolved so far: {len(unfinished)}; failed: {len(failed)}\n\n"
+    )
     sys.stdout.write(solved_markdown(solved_by_trial(runs)) + "\n")
     sys.stdout.write(paired_markdown(runs))
     return 0

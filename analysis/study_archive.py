@@ -60,7 +60,9 @@ class Manifest:
             paths = tuple(str(p) for p in data["paths"])
             total = int(data["total_bytes"])
         except FileNotFoundError:
-            raise RunFileError(f"{study}: no {MANIFEST} (nothing of this folder was archived)") from None
+            raise RunFileError(
+                f"{study}: no {MANIFEST} (nothing of this folder was archived)"
+            ) from None
         except (ValueError, KeyError, TypeError) as error:
             raise RunFileError(f"{file}: not a study manifest ({error})") from None
         if len(commit) != 40 or any(c not in "0123456789abcdef" for c in commit):
@@ -70,7 +72,9 @@ class Manifest:
         return cls(commit, prefix.rstrip("/"), paths, total)
 
 
-def write_manifest(study: Path, commit: str, prefix: str, paths: list[str], total_bytes: int) -> None:
+def write_manifest(
+    study: Path, commit: str, prefix: str, paths: list[str], total_bytes: int
+) -> None:
     """Record that ``paths`` (relative to ``study``) are kept at ``commit`` only."""
     data = {
         "commit": commit,
@@ -159,12 +163,16 @@ def archive(study: Path) -> int:
     study = study.resolve()
     root = repository_root(study)
     prefix = study.relative_to(root).as_posix()
-    head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True)
+    head = subprocess.run(
+        ["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True
+    )
     tracked = subprocess.run(
         ["git", "-C", str(root), "ls-files", "-z", "--", prefix], capture_output=True, text=True
     )
     changed = subprocess.run(
-        ["git", "-C", str(root), "status", "--porcelain", "-z", "--", prefix], capture_output=True, text=True
+        ["git", "-C", str(root), "status", "--porcelain", "-z", "--", prefix],
+        capture_output=True,
+        text=True,
     )
     if head.returncode or tracked.returncode or changed.returncode:
         raise RunFileError(f"{study}: git could not list the folder")
@@ -194,10 +202,14 @@ def archive(study: Path) -> int:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     commands = parser.add_subparsers(dest="command", required=True)
-    restoring = commands.add_parser("restore", help="write the archived files back from the history")
+    restoring = commands.add_parser(
+        "restore", help="write the archived files back from the history"
+    )
     restoring.add_argument("study", type=Path, help="a study folder holding archived.json")
     restoring.add_argument("--to", type=Path, default=None, help="write a whole copy here instead")
-    archiving = commands.add_parser("archive", help="delete the committed bulky files, keep a manifest")
+    archiving = commands.add_parser(
+        "archive", help="delete the committed bulky files, keep a manifest"
+    )
     archiving.add_argument("study", type=Path, nargs="+", help="study folders, committed")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")

@@ -56,7 +56,12 @@ def test_each_run_stops_at_its_first_success_and_a_repeat_does_nothing(tmp_path)
     fake = FakeTrain()
     runs = plan(["kernel=se,sp"], [0, 1], [])
     outcome = run_campaign(tmp_path, runs, max_trials=5, launch=fake)
-    assert outcome == {"se_seed_0": (2, True), "se_seed_1": (5, False), "sp_seed_0": (1, True), "sp_seed_1": (3, True)}
+    assert outcome == {
+        "se_seed_0": (2, True),
+        "se_seed_1": (5, False),
+        "sp_seed_0": (1, True),
+        "sp_seed_1": (3, True),
+    }
     # calls per run: one first call (num_trials=1), then one resume per further trial
     per_run = {}
     for argv in fake.calls:
@@ -87,4 +92,3 @@ def test_all_trials_runs_past_success_and_bad_input_is_one_line(tmp_path, caplog
     assert outcome == {"seed_0": (3, True)}
     assert main([str(tmp_path), "--max-trials", "0"]) == 2
     assert "--max-trials=0" in caplog.text
-

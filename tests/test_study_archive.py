@@ -18,7 +18,9 @@ pytestmark = pytest.mark.skipif(shutil.which("git") is None, reason="needs git")
 def git(repo: Path, *args: str) -> str:
     done = subprocess.run(
         ["git", "-C", str(repo), "-c", "user.name=t", "-c", "user.email=t@t", *args],
-        capture_output=True, text=True, check=True,
+        capture_output=True,
+        text=True,
+        check=True,
     )
     return done.stdout
 
@@ -50,14 +52,22 @@ def test_archive_keeps_what_a_reader_needs_and_restore_brings_back_the_rest(stud
     folder, files = study
     assert main(["archive", str(folder)]) == 0
     kept = {p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file()}
-    assert kept == {"README.md", "run/config.yaml", "run/summary.csv", "run/train.log", "archived.json"}
+    assert kept == {
+        "README.md",
+        "run/config.yaml",
+        "run/summary.csv",
+        "run/train.log",
+        "archived.json",
+    }
     manifest = json.loads((folder / "archived.json").read_text())
     assert manifest["files"] == 4 and manifest["prefix"] == "docs/results/s"
     assert manifest["total_bytes"] == sum(len(files[p]) for p in manifest["paths"])
 
     copy = tmp_path / "copy"
     assert main(["restore", str(folder), "--to", str(copy)]) == 0
-    restored = {p.relative_to(copy).as_posix(): p.read_bytes() for p in copy.rglob("*") if p.is_file()}
+    restored = {
+        p.relative_to(copy).as_posix(): p.read_bytes() for p in copy.rglob("*") if p.is_file()
+    }
     assert restored == files
 
     assert main(["restore", str(folder)]) == 0
