@@ -137,6 +137,7 @@ def test_a_failing_compiler_falls_back_to_eager_with_a_warning(
     torch.testing.assert_close(gradient, reference[1], rtol=0, atol=0)
 
 
+@pytest.mark.slow  # CI time (make test-slow runs it)
 def test_a_new_compiling_rollout_is_not_limited_by_the_graphs_of_an_earlier_run() -> None:
     """A sweep's jobs or the bench's settings run one after another in a process; each
     run's rollout starts with PyTorch's compile caches cleared, so the graphs of earlier

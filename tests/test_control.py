@@ -29,6 +29,9 @@ from mcpilco.tracking import read_run_log
 
 ROOT = Path(__file__).resolve().parent.parent
 
+SLOW = pytest.mark.slow
+"""End-to-end cases beside a faster one of the same guarantee (make test-slow)."""
+
 
 @pytest.fixture(scope="module")
 def arm() -> PyBulletArm:
@@ -231,11 +234,15 @@ def test_runner_fits_once_and_reuses_the_model(tmp_path: Path) -> None:
     ("overrides", "message"),
     [
         (["robot.num_joints=6"], "robot.num_joints=6 but"),
-        (["controller.omega=0"], "controller.omega must be positive"),
-        (["robot.dt=-0.001"], "robot.dt must be positive"),
+        # slow: CI time; every key's bad values are also refused in-process
+        # (tests/test_runner_config_checks.py)
+        pytest.param(["controller.omega=0"], "controller.omega must be positive", marks=SLOW),
+        pytest.param(["robot.dt=-0.001"], "robot.dt must be positive", marks=SLOW),
         (["fit_model=false"], "holds no fitted model and fit_model=false"),
-        (["reference.seeds=[]"], "reference.seeds"),
-        (["tracking.rerun=connect"], "tracking.rerun='connect' must be off or save"),
+        pytest.param(["reference.seeds=[]"], "reference.seeds", marks=SLOW),
+        pytest.param(
+            ["tracking.rerun=connect"], "tracking.rerun='connect' must be off or save", marks=SLOW
+        ),
     ],
 )
 def test_bad_input_stops_before_any_simulation(

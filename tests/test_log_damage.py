@@ -93,7 +93,9 @@ def chunk_offsets(path: Path) -> list[int]:
     return sorted(index.chunk_start_offset for index in summary.chunk_indexes)
 
 
-@pytest.mark.parametrize("damaged", [0, 1, 3])
+@pytest.mark.parametrize(
+    "damaged", [0, pytest.param(1, marks=pytest.mark.slow), pytest.param(3, marks=pytest.mark.slow)]
+)
 def test_a_chunk_length_of_two_to_the_forty_skips_that_chunk_only(
     tmp_path: Path, damaged: int
 ) -> None:

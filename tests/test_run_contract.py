@@ -32,6 +32,9 @@ CONTROL_TINY = [
     "reference.settle=0.2", "threads=1", "controller=gp_fl",
 ]  # fmt: skip
 
+SLOW = pytest.mark.slow
+"""End-to-end cases beside a faster one of the same guarantee (make test-slow)."""
+
 
 def run(module: str, *args: str, env: dict[str, str] | None = None):  # type: ignore[no-untyped-def]
     return subprocess.run(
@@ -338,12 +341,24 @@ def test_replay_fails_when_no_whole_unit_is_logged_and_warns_of_missing_ones(
     ("module", "overrides", "key"),
     [
         ("runners.train", ["optimizer.num_particles=1000000000"], "optimizer.num_particles"),
-        ("runners.train", ["policy.num_basis=1000000000"], "policy.num_basis"),
-        ("runners.train", ["system.trial_duration=1000000000"], "trial duration"),
+        # slow: CI time (one case per runner stays in make test)
+        pytest.param(
+            "runners.train", ["policy.num_basis=1000000000"], "policy.num_basis", marks=SLOW
+        ),
+        pytest.param(
+            "runners.train", ["system.trial_duration=1000000000"], "trial duration", marks=SLOW
+        ),
         ("runners.control", ["data.duration=1000000000"], "data.duration"),
-        ("runners.control", ["reference.duration=1000000000"], "reference.duration"),
+        pytest.param(
+            "runners.control", ["reference.duration=1000000000"], "reference.duration", marks=SLOW
+        ),
         ("runners.cgpdm", ["data.num_sequences=1000000000"], "data.num_sequences"),
-        ("runners.cgpdm", ["cloth.timestep=1e-10", "cloth.edge_timeconst=0.002"], "cloth.timestep"),
+        pytest.param(
+            "runners.cgpdm",
+            ["cloth.timestep=1e-10", "cloth.edge_timeconst=0.002"],
+            "cloth.timestep",
+            marks=SLOW,
+        ),
     ],
 )
 def test_absurd_sizes_are_refused_before_any_allocation(

@@ -150,6 +150,7 @@ def test_our_classes_and_user_subclasses_are_allowed() -> None:
     check_targets(OmegaConf.load(ROOT / "conf" / "kernel" / "se_linear.yaml"))  # nested lists
 
 
+@pytest.mark.slow  # CI time (make test-slow runs it)
 def test_a_hostile_config_yaml_runs_nothing_when_evaluated(tmp_path: Path) -> None:
     """Issue 27: a config.yaml naming builtins.open with mode w truncated a file when
     analysis.evaluate read the directory."""
@@ -179,7 +180,9 @@ def test_a_hostile_config_yaml_runs_nothing_when_evaluated(tmp_path: Path) -> No
     "system",
     [
         "{_target_: builtins.open, file: VICTIM, mode: w}",
-        "{_target_: not_installed_plugin.Pendulum, length: 1.0}",
+        pytest.param(  # slow: CI time
+            "{_target_: not_installed_plugin.Pendulum, length: 1.0}", marks=pytest.mark.slow
+        ),
     ],
 )
 def test_replay_of_a_foreign_log_runs_nothing_and_still_replays(
