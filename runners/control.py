@@ -1,13 +1,8 @@
-"""GP feedback-linearisation torque control of a simulated arm (thesis chapter 5):
-``python -m runners.control kernel=gip controller=gp_fl [+experiment=fl_initial_error]``.
+"""GP feedback-linearisation torque control (thesis chapter 5): ``python -m runners.control``.
 
-The GP inverse-dynamics model is fitted once per (robot, kernel, data, gp settings) and
-cached in ``model_dir`` (``models/<kernel>`` by default: data sets, ``gp.pt`` of tensors,
-test nMSE, ``model.json`` naming what it was fitted to); the run directory holds one
-tracking run per reference seed (``summary.csv``, ``tracking/seed_KK.npz``, ``rollouts.mcap``).
-
-The Hydra application only: the work lives in :mod:`runners.control_job`, imported when a job
-starts, so ``--help`` and ``--cfg job`` answer without loading torch.
+The Hydra application only; what a run does is described and done in
+:mod:`runners.control_job`, imported when a job starts, so ``--help`` and ``--cfg job`` answer
+without loading torch.
 """
 
 from __future__ import annotations

@@ -1,7 +1,8 @@
 """Train a policy with MC-PILCO: ``python -m runners.train system=cartpole kernel=sp``.
 
-The Hydra application only: the work lives in :mod:`runners.train_job`, imported when a job
-starts, so ``--help`` and ``--cfg job`` answer without loading torch.
+The Hydra application only; what a run does is described and done in
+:mod:`runners.train_job`, imported when a job starts, so ``--help`` and ``--cfg job`` answer
+without loading torch.
 """
 
 from __future__ import annotations
