@@ -52,6 +52,47 @@ def test_gip_matches_its_formula_at_one_pair() -> None:
     torch.testing.assert_close(kernel(x, z)[0, 0, 0], (acc + vel) * config)
 
 
+def test_gip_matches_its_formula_with_random_weights_per_factor_and_a_prismatic_joint() -> None:
+    """Every output, factor and feature with its own weight, joint 2 of 3 prismatic: a
+    mis-indexed factor, feature, output or joint type would change the value."""
+    torch.manual_seed(3)
+    n, outputs = 3, 2
+    kernel = GeometricPolynomial(KernelShape(outputs, 3 * n), prismatic=[1])
+    with torch.no_grad():
+        for parameter in kernel.parameters():
+            parameter.normal_(0.0, 0.5)
+    x, z = torch.randn(4, 3 * n, dtype=torch.float64), torch.randn(3, 3 * n, dtype=torch.float64)
+    gram = kernel(x, z)
+
+    def features(q: torch.Tensor, joint: int) -> tuple[float, float]:
+        return (float(q), 0.0) if joint == 1 else (float(torch.cos(q)), float(torch.sin(q)))
+
+    acc, vel = kernel.acceleration_term, kernel.velocity_term
+    for g in range(outputs):
+        for a in range(4):
+            for b in range(3):
+                u, v = x[a], z[b]
+                motion = float(acc.log_offset[g, 0].exp()) + sum(
+                    float(acc.log_weight[g, 0, d].exp() * u[2 * n + d] * v[2 * n + d])
+                    for d in range(n)
+                )
+                velocity = 1.0
+                for r in range(2):
+                    velocity *= float(vel.log_offset[g, r].exp()) + sum(
+                        float(vel.log_weight[g, r, d].exp() * u[n + d] * v[n + d]) for d in range(n)
+                    )
+                configuration = 1.0
+                for j in range(n):
+                    fu, fv = features(u[j], j), features(v[j], j)
+                    for r in range(2):
+                        configuration *= float(kernel.log_joint_offset[g, j, r].exp()) + sum(
+                            float(kernel.log_joint_weight[g, j, r, f].exp()) * fu[f] * fv[f]
+                            for f in range(2)
+                        )
+                expected = (motion + velocity) * configuration
+                assert float(gram[g, a, b]) == pytest.approx(expected, rel=1e-10)
+
+
 def test_gip_gradients_match_finite_differences() -> None:
     torch.manual_seed(1)
     kernel = GeometricPolynomial(KernelShape(2, 6))

@@ -97,6 +97,16 @@ class Kernel(ExtensionPoint, nn.Module, ABC):
         it pays."""
         return lambda x1: (self(x2, x1).mT, self.diag(x1))
 
+    def prepare_cross(self, x2: torch.Tensor) -> Callable[[torch.Tensor], torch.Tensor]:
+        """``x1 ↦ k(x1, x2) [G, M, N]`` alone (a posterior mean needs no variance); the
+        default drops :meth:`prepare`'s diagonal."""
+        prepared = self.prepare(x2)
+        return lambda x1: prepared(x1)[0]
+
+    affine_columns: tuple[int, ...] = ()
+    """Input columns every function of the kernel's space is affine in (a GP mean is then
+    affine in them; the GIP kernel: the accelerations)."""
+
     def prepare_first_order(self, x2: torch.Tensor) -> FirstOrderCross | None:
         """The cross-covariance at fixed training inputs ``x2`` with its first derivatives
         formed in the forward pass (:mod:`mcpilco.kernels.first_order`), or None where

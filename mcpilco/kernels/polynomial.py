@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import torch
 from torch import nn
@@ -48,6 +48,18 @@ class MultiplicativePolynomial(Kernel):
         factors = torch.matmul(z1 * weights[:, :, None, :], z2.transpose(-1, -2))  # [G,d,N1,N2]
         factors = factors + torch.exp(self.log_offset)[:, :, None, None]
         return factors.prod(dim=1)
+
+    def prepare_cross(self, x2: torch.Tensor) -> Callable[[torch.Tensor], torch.Tensor]:
+        """``x1 ↦ k(x1, x2) [G, M, N]`` with ``x2``'s columns selected and laid out once."""
+        z2 = select_dims(x2, self.active_dims).T.contiguous()  # [D, N]
+        weights, offsets = torch.exp(self.log_weight), torch.exp(self.log_offset)
+
+        def cross(x1: torch.Tensor) -> torch.Tensor:
+            z1 = select_dims(x1, self.active_dims)
+            factors = torch.matmul(z1 * weights[:, :, None, :], z2)  # [G, d, M, N]
+            return (factors + offsets[:, :, None, None]).prod(dim=1)
+
+        return cross
 
     def diag(self, x: torch.Tensor) -> torch.Tensor:
         z = select_dims(x, self.active_dims)
