@@ -60,11 +60,14 @@ def collect(
     kd: float | Sequence[float] = 30.0,
     torque_limit: float = 300.0,
 ) -> InverseDynamicsData:
-    """Run a PD controller τ = K_P (r − q) + K_D (ṙ − q̇) (clipped to ±``torque_limit``)
-    on a filtered-noise reference for ``duration`` s at the robot's rate; accelerations by
-    central differences of the velocities; every ``downsample``-th sample kept.
+    """Run a PD controller τ = K_P (r − q) + K_D (ṙ − q̇) (clipped to ±``torque_limit``
+    and to the robot's own limits) on a filtered-noise reference around the robot's
+    ``home`` (zeros when it has none) for ``duration`` s at the robot's rate;
+    accelerations by central differences of the velocities; every ``downsample``-th
+    sample kept.
 
-    Returns samples whose τ_t was applied at (q_t, q̇_t) and q̈_t = (q̇_{t+1} − q̇_{t−1}) / 2dt.
+    Returns samples whose τ_t (the torque applied, after both clips) acted at (q_t, q̇_t)
+    and q̈_t = (q̇_{t+1} − q̇_{t−1}) / 2dt.
     """
     positive("duration", duration, "data")
     if not isinstance(downsample, int) or downsample < 1:
@@ -72,6 +75,8 @@ def collect(
     n, dt = robot.num_joints, robot.dt
     steps = int(round(duration / dt))
     reference = filtered_noise(rng, steps + 2, n, dt, cutoff_hz, reference_std)
+    if robot.home is not None:
+        reference = reference + robot.home
     reference_velocity = np.gradient(reference, dt, axis=0)
     gains_p = np.broadcast_to(np.asarray(kp, dtype=np.float64), (n,))
     gains_d = np.broadcast_to(np.asarray(kd, dtype=np.float64), (n,))
@@ -83,7 +88,7 @@ def collect(
     for t in range(steps + 1):
         error = reference[t] - positions[t]
         torque = gains_p * error + gains_d * (reference_velocity[t] - velocities[t])
-        torques[t] = np.clip(torque, -torque_limit, torque_limit)
+        torques[t] = robot.limited(np.clip(torque, -torque_limit, torque_limit))
         positions[t + 1], velocities[t + 1] = robot.step(torques[t])
     accelerations = (velocities[2:] - velocities[:-2]) / (2 * dt)  # at samples 1..steps
     keep = np.arange(1, steps + 1, downsample)

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mcpilco.control.controllers import TrackingController
-from mcpilco.control.references import SineReference
+from mcpilco.control.references import Reference
 from mcpilco.control.robot import TorqueControlledRobot
 
 DIVERGED_RAD = np.pi
@@ -18,7 +18,8 @@ DIVERGED_RAD = np.pi
 @dataclass
 class TrackingRun:
     """One tracking run: ``time [T+1]`` (s); ``positions``, ``velocities``, ``reference``,
-    ``errors`` ``[T+1, n]`` (rad, rad/s, rad, rad); ``torques [T, n]`` (N m, commanded);
+    ``errors`` ``[T+1, n]`` (rad, rad/s, rad, rad); ``torques [T, n]`` (N m, commanded by
+    the controller); ``applied [T, n]`` (N m, after the robot's torque limits);
     ``latency [T]`` (s per controller call); ``diverged`` (stopped early, error > π)."""
 
     time: np.ndarray
@@ -27,23 +28,28 @@ class TrackingRun:
     reference: np.ndarray
     errors: np.ndarray
     torques: np.ndarray
+    applied: np.ndarray
     latency: np.ndarray
     diverged: bool
 
     def metrics(self, settle: float, threshold_deg: float = 1.0) -> dict[str, object]:
         """Per joint: max |e| after ``settle`` s (steady state) and RMS e, in degrees; max
-        |τ|; success when the steady-state error is below ``threshold_deg`` on every joint
-        for the whole run."""
+        |τ| commanded; the share of steps the limits cut the command (per joint, and
+        ``saturated_share``: any joint); success when the steady-state error is below
+        ``threshold_deg`` on every joint for the whole run."""
         steady = self.errors[self.time >= settle]
         steady_max = (
             np.degrees(np.abs(steady).max(0))
             if len(steady)
             else np.full(self.errors.shape[1], np.inf)
         )
+        cut = self.applied != self.torques  # [T, n]
         return {
             "steady_state_max_error_deg": steady_max.tolist(),
             "rms_error_deg": np.degrees(np.sqrt((self.errors**2).mean(0))).tolist(),
             "max_torque": np.abs(self.torques).max(0).tolist(),
+            "saturated_share": float(cut.any(axis=1).mean()) if len(cut) else 0.0,
+            "saturated_share_joint": cut.mean(0).tolist() if len(cut) else [0.0] * cut.shape[1],
             "diverged": self.diverged,
             "success": bool(not self.diverged and np.all(steady_max < threshold_deg)),
             "latency_median_ms": float(np.median(self.latency) * 1e3),
@@ -54,14 +60,15 @@ class TrackingRun:
 def track(
     robot: TorqueControlledRobot,
     controller: TrackingController,
-    reference: SineReference,
-    duration: float,
+    reference: Reference,
+    duration: float | None = None,
     initial_error: float = 0.0,
 ) -> TrackingRun:
-    """Run ``controller`` for ``duration`` s from q0 = r(0) − ``initial_error`` (every
-    joint; rad), q̇0 = ṙ(0); stop early if any |e| exceeds π."""
+    """Run ``controller`` for ``duration`` s (None: the reference's) from q0 = r(0) −
+    ``initial_error`` (every joint; rad), q̇0 = ṙ(0); the robot applies each command
+    within its torque limits; stop early if any |e| exceeds π."""
     n, dt = robot.num_joints, robot.dt
-    steps = int(round(duration / dt))
+    steps = int(round((reference.duration if duration is None else duration) / dt))
     times = np.arange(steps + 1) * dt
     r, rd, rdd = reference(times)
     positions, velocities = np.empty((steps + 1, n)), np.empty((steps + 1, n))
@@ -85,6 +92,7 @@ def track(
         r[:end],
         r[:end] - positions[:end],
         torques[:last],
+        robot.limited(torques[:last]),
         latency[:last],
         diverged=last < steps,
     )
