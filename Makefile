@@ -7,7 +7,7 @@ TORCH_INDEX ?=   # e.g. https://download.pytorch.org/whl/cpu: the CPU wheel (PyP
 STAMP  := $(VENV)/.installed
 TEST_WORKERS ?= auto   # pytest-xdist workers (one per core); 0 runs the tests in one process
 
-.PHONY: help install smoke train test test-slow bench bench-trial docs screenshot lint clean
+.PHONY: help install smoke train test test-slow bench bench-control bench-trial docs screenshot lint clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  %-10s %s\n", $$1, $$2}'
@@ -37,8 +37,11 @@ test: $(STAMP)  ## run the test suite (the command CI runs), one worker per core
 test-slow: $(STAMP)  ## run the long learning tests too
 	$(PY) -m pytest -q -m slow -n $(TEST_WORKERS)
 
-bench: $(STAMP)  ## time one policy-optimisation step and a GP fit
+bench: $(STAMP)  ## time one policy-optimisation step, a GP fit and the torque controllers' calls
 	$(PY) -m runners.bench $(ARGS)
+
+bench-control: $(STAMP)  ## controller latency per 1 kHz call (ARGS: --points --kernels --dtypes ...)
+	$(PY) -m runners.bench_control $(ARGS)
 
 bench-trial: $(STAMP)  ## time trial 1 at thesis settings, float64 and mixed (minutes)
 	$(PY) -m runners.bench_trial $(ARGS)

@@ -23,7 +23,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from omegaconf import OmegaConf  # noqa: E402
+from omegaconf import DictConfig, OmegaConf  # noqa: E402
 
 from analysis.thesis import INVERSE_DYNAMICS_NMSE, kernel_label  # noqa: E402
 from mcpilco.run_contract import CONTROL, find_runs  # noqa: E402
@@ -84,6 +84,12 @@ def error_boxplots(model_dirs: list[Path], labels: list[str], out: Path) -> None
     plt.close(figure)
 
 
+def task_of(config: DictConfig) -> DictConfig:
+    """The run's ``task`` keys (initial error, success rule); runs before the reference
+    group kept them under ``reference``."""
+    return config.task if "task" in config else config.reference
+
+
 def run_dirs(paths: list[Path]) -> list[Path]:
     """The control run directories under ``paths`` (other kinds left out with a warning)."""
     return find_runs(paths, CONTROL)
@@ -103,7 +109,7 @@ def tracking_table(runs: list[Path]) -> pd.DataFrame:
                 "kernel": kernel_label(OmegaConf.to_container(config.kernel)),
                 "controller": str(config.controller._target_).rsplit(".", 1)[-1],
                 "model": Path(str(config.model_dir)).name,
-                "initial_error_rad": float(config.reference.initial_error),
+                "initial_error_rad": float(task_of(config).initial_error),
                 "seeds": len(summary),
                 "successes": int(summary["success"].sum()),
                 "diverged": int(summary["diverged"].sum()),

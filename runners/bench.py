@@ -311,7 +311,7 @@ def main() -> None:
             print_fit("UR5 GP fit n=400", fit_comparison(400, UR5))
     if not args.skip_control:
         print("torque controllers, per 1 kHz call (target p99 < 1 ms):")  # noqa: T201
-        for name, (median, p99) in control_latencies().items():
+        for name, (median, p99) in control_latencies(dtypes=("float64", "float32")).items():
             print(f"  {name}: median {median * 1e3:.3f} ms, p99 {p99 * 1e3:.3f} ms")  # noqa: T201
     if not args.skip_run:
         phases = whole_run(args.threads)

@@ -25,8 +25,11 @@ MAX_INITIAL_ERROR = math.pi
 """rad: an initial error beyond half a turn is no tracking experiment."""
 
 
-def check_control_config(cfg: DictConfig, num_joints: int, dt: float) -> None:
-    """One-line :class:`ConfigError` naming the first bad key and its value."""
+def check_control_config(
+    cfg: DictConfig, num_joints: int, dt: float, durations: list[float]
+) -> None:
+    """One-line :class:`ConfigError` naming the first bad key and its value (the
+    references, of ``durations`` s, were checked when they were built)."""
     integer("seed", cfg.seed)
     optional_integer("threads", cfg.get("threads"))
     text("model_dir", cfg.model_dir)
@@ -52,44 +55,39 @@ def check_control_config(cfg: DictConfig, num_joints: int, dt: float) -> None:
             "(data.duration / robot.dt / data.downsample)"
         )
     integer("gp.max_iterations", gp.max_iterations, minimum=1)
-    check_reference(cfg.reference, num_joints)
+    check_task(cfg.task, durations)
     boolean("tracking.mcap", cfg.tracking.mcap)
     rerun_mode(cfg)
-    check_memory(cfg, num_joints, dt, samples, fit_points)
+    check_memory(cfg, num_joints, dt, samples, fit_points, max(durations))
     if cfg.fit_model:
         writable_directory("model_dir", cfg.model_dir)
 
 
-def check_reference(reference: DictConfig, num_joints: int) -> None:
-    """The ``reference.*`` keys: seeds, durations, the frequency law, the initial error."""
-    seeds = reference.seeds
-    if isinstance(seeds, str) or not hasattr(seeds, "__len__") or len(seeds) == 0:
-        raise ConfigError(f"reference.seeds={seeds!r} must be a non-empty list of integers")
-    values = [integer(f"reference.seeds[{i}]", s) for i, s in enumerate(seeds)]
-    if len(set(values)) != len(values):
-        raise ConfigError(f"reference.seeds={values} names a seed twice")
-    duration = number("reference.duration", reference.duration, above=0)
-    number("reference.amplitude", reference.amplitude)
-    mean = reference.frequency_mean
-    if isinstance(mean, int | float) and not isinstance(mean, bool):
-        number("reference.frequency_mean", mean)
-    else:
-        numbers("reference.frequency_mean", mean, length=num_joints)
-    number("reference.frequency_std", reference.frequency_std, minimum=0)
+def check_task(task: DictConfig, durations: list[float]) -> None:
+    """The ``task.*`` keys: the initial error and the success rule, against the shortest
+    reference's duration."""
     number(
-        "reference.initial_error",
-        reference.initial_error,
+        "task.initial_error",
+        task.initial_error,
         minimum=-MAX_INITIAL_ERROR,
         maximum=MAX_INITIAL_ERROR,
     )
-    settle = number("reference.settle", reference.settle, minimum=0)
-    if settle >= duration:
-        raise ConfigError(f"reference.settle={settle!r} must be < reference.duration={duration!r}")
-    number("reference.threshold_deg", reference.threshold_deg, above=0)
+    settle = number("task.settle", task.settle, minimum=0)
+    shortest = min(durations)
+    if settle >= shortest:
+        raise ConfigError(
+            f"task.settle={settle!r} must be < the reference's duration ({shortest:g} s)"
+        )
+    number("task.threshold_deg", task.threshold_deg, above=0)
 
 
 def check_memory(
-    cfg: DictConfig, num_joints: int, dt: float, samples: int, fit_points: int | None
+    cfg: DictConfig,
+    num_joints: int,
+    dt: float,
+    samples: int,
+    fit_points: int | None,
+    duration: float,
 ) -> None:
     """Refuse what cannot fit: the collected data (every sample of a set before
     downsampling, q, q̇, q̈, τ and the reference), the posterior's kernel matrix and
@@ -103,5 +101,5 @@ def check_memory(
     )
     m = samples if fit_points is None else fit_points
     fits_in_memory("gp.fit_points", 4.0 * m**2 * 8 * num_joints, f"ML-II on {m} samples")
-    steps = cfg.reference.duration / dt
-    fits_in_memory("reference.duration, robot.dt", steps * 8 * num_joints * 8.0, "a tracking run")
+    steps = duration / dt
+    fits_in_memory("reference.duration, robot.dt", steps * 9 * num_joints * 8.0, "a tracking run")

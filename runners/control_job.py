@@ -4,7 +4,8 @@
 The GP inverse-dynamics model is fitted once per (robot, kernel, data, gp settings) and
 cached in ``model_dir`` (``models/<kernel>`` by default: data sets, ``gp.pt`` of tensors,
 test nMSE, ``model.json`` naming what it was fitted to); the run directory holds one
-tracking run per reference seed (``summary.csv``, ``tracking/seed_KK.npz``, ``rollouts.mcap``).
+tracking run per reference of the ``reference`` group (``summary.csv`` keyed by the
+reference's label, ``tracking/<label>.npz``, ``rollouts.mcap``).
 """
 
 from __future__ import annotations
@@ -21,14 +22,15 @@ from omegaconf import DictConfig, OmegaConf
 from mcpilco.build import make
 from mcpilco.control import (
     GPInverseDynamics,
-    SineReference,
+    Reference,
+    ReferenceFamily,
     TorqueControlledRobot,
     TrackingController,
     TrackingRun,
     track,
 )
 from mcpilco.control.model_store import load_or_fit, new_model
-from mcpilco.errors import RunFileError
+from mcpilco.errors import ConfigError, RunFileError
 from mcpilco.run_contract import CONTROL, RunContract
 from mcpilco.run_storage import RunDirectory
 from mcpilco.safe_config import check_targets
@@ -76,31 +78,47 @@ class ControlSetup:
 
     robot: TorqueControlledRobot
     controller: TrackingController
+    references: list[Reference]
 
 
 def prepare(cfg: DictConfig) -> ControlSetup:
-    """Check every key and build the robot and controller; no data, fit or tracking yet."""
+    """Check every key and build the robot, controller and references (a reference file
+    is read and checked here); no data, fit or tracking yet."""
     check_targets(cfg)
     robot: TorqueControlledRobot = make(cfg.robot)
     controller: TrackingController = make(cfg.controller)
-    check_control_config(cfg, robot.num_joints, robot.dt)
+    family: ReferenceFamily = make(cfg.reference)
+    references = family.references(robot.num_joints)
+    labels = [r.label for r in references]
+    if not references or len(set(labels)) != len(labels):
+        raise ConfigError(f"reference: the references' labels {labels} must be distinct, not none")
+    check_control_config(cfg, robot.num_joints, robot.dt, [r.duration for r in references])
+    limits = robot.torque_limits
+    log.info(
+        "robot %s: torque limits %s%s",
+        robot.name,
+        "off (robot.torque_limit=null)"
+        if limits is None
+        else f"{np.round(limits, 3).tolist()} N m",
+        f"; held joints {held}" if (held := getattr(robot, "held_joints", [])) else "",
+    )
     if cfg.get("threads") is not None:
         torch.set_num_threads(int(cfg.threads))
     if controller.needs_model:
         new_model(cfg, robot)  # the kernel and GP settings are checked here, before any data
-    return ControlSetup(robot, controller)
+    return ControlSetup(robot, controller, references)
 
 
 def work(cfg: DictConfig, setup: ControlSetup, contract: RunContract, finished: list[Any]) -> None:
-    """Get the model (fitted once per model directory), then track every reference seed
-    not yet finished here; each seed's log chunk is closed before its summary row."""
+    """Get the model (fitted once per model directory), then track every reference not
+    yet finished here; each reference's log chunk is closed before its summary row."""
     robot, controller, storage = setup.robot, setup.controller, contract.storage
-    seeds = [int(s) for s in cfg.reference.seeds]
-    done = [int(s) for s in finished]
-    if done != seeds[: len(done)]:
+    labels = [r.label for r in setup.references]
+    done = [str(s) for s in finished]
+    if done != labels[: len(done)]:
         raise RunFileError(
-            f"{storage.path / 'summary.csv'} lists reference seeds {done}, not a start of "
-            f"reference.seeds={seeds}"
+            f"{storage.path / 'summary.csv'} lists references {done}, not a start of this "
+            f"run's {labels}"
         )
     model: GPInverseDynamics | None = None
     if controller.needs_model:
@@ -111,17 +129,21 @@ def work(cfg: DictConfig, setup: ControlSetup, contract: RunContract, finished: 
     for observer in observers:
         observer.run_started(run_metadata(config_yaml, cfg.seed, "cpu", "float64"), len(done) - 1)
     try:
-        for index, seed in enumerate(seeds):
-            if seed in done:
+        for index, reference in enumerate(setup.references):
+            if reference.label in done:
                 continue
-            run, row = run_reference(cfg, robot, controller, storage, index, seed)
+            run, row = run_reference(cfg, robot, controller, storage, index, reference)
             log_run(observers, index, run, row)  # the log chunk first, the row last
             storage.append_summary(row, key=contract.kind.unit_key)
     finally:
         for observer in observers:
             observer.close()
     table = storage.summary()
-    columns = [c for c in ("seed", "success", "diverged", "latency_p99_ms") if c in table.columns]
+    columns = [
+        c
+        for c in ("reference", "success", "diverged", "saturated_share", "latency_p99_ms")
+        if c in table.columns
+    ]
     log.info(
         "summary (every column: %s):\n%s",
         storage.path / "summary.csv",
@@ -135,25 +157,17 @@ def run_reference(
     controller: TrackingController,
     storage: RunDirectory,
     index: int,
-    seed: int,
+    reference: Reference,
 ) -> tuple[TrackingRun, dict[str, Any]]:
-    """Track the reference of ``seed``; store its arrays; return its summary row."""
-    reference_cfg = cfg.reference
-    mean = reference_cfg.frequency_mean
-    reference = SineReference.random(
-        np.random.default_rng(seed),
-        robot.num_joints,
-        float(reference_cfg.amplitude),
-        mean if isinstance(mean, int | float) else np.asarray(list(mean), dtype=np.float64),
-        float(reference_cfg.frequency_std),
-    )
-    run = track(robot, controller, reference, reference_cfg.duration, reference_cfg.initial_error)
-    metrics = run.metrics(reference_cfg.settle, reference_cfg.threshold_deg)
+    """Track ``reference``; store its arrays; return its summary row."""
+    task = cfg.task
+    run = track(robot, controller, reference, initial_error=task.initial_error)
+    metrics = run.metrics(task.settle, task.threshold_deg)
     arrays = {k: v for k, v in vars(run).items() if isinstance(v, np.ndarray)}
-    storage.save_arrays(
-        f"tracking/seed_{seed:02d}.npz", {**arrays, "frequencies": reference.frequencies}
-    )
-    row: dict[str, Any] = {"trial": index, "seed": seed}
+    storage.save_arrays(f"tracking/{reference.label}.npz", {**arrays, **reference.parameters()})
+    row: dict[str, Any] = {"trial": index, "reference": reference.label}
+    if reference.label.startswith("seed_"):
+        row["seed"] = int(reference.label.removeprefix("seed_"))
     for key, value in metrics.items():
         if isinstance(value, list):
             row.update({f"{key}_{j + 1}": v for j, v in enumerate(value)})
@@ -161,10 +175,12 @@ def run_reference(
             row[key] = value
     worst = max(metrics["steady_state_max_error_deg"])  # type: ignore[arg-type]
     log.info(
-        "seed %d: %s, worst steady-state error %.3f deg, controller p99 %.3f ms",
-        seed,
+        "reference %s: %s, worst steady-state error %.3f deg, torque limits cut %.1f %% of "
+        "steps, controller p99 %.3f ms",
+        reference.label,
         "success" if metrics["success"] else ("diverged" if run.diverged else "no success"),
         worst,
+        100 * float(metrics["saturated_share"]),  # type: ignore[arg-type]
         metrics["latency_p99_ms"],
     )
     return run, row

@@ -176,12 +176,65 @@ def test_components_from_a_gp_of_the_true_inverse_dynamics_match_pybullet(arm: P
     assert max(inertia_errors) < 0.05 * max(inertia_scale), (inertia_errors, inertia_scale)
 
 
+class NonSymmetricModel(LinearModel):
+    """f = M q̈ + c(q, q̇) with a non-symmetric M: a transposed B̂ would not pass."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.inertia = torch.tensor([[2.0, 0.7], [-0.3, 1.0]], dtype=torch.float64)
+
+
+def test_the_inertia_estimate_is_not_transposed() -> None:
+    """B̂_ij = f̂_i(q, 0, 1_j) − ĝ_i: row i is joint i's torque, column j the unit
+    acceleration of joint j (eq. 5.8), and GP-FL-DCE's τ = B̂ a + n̂ uses it so."""
+    model = NonSymmetricModel()
+    q, qd = torch.tensor([0.3, -0.2], dtype=torch.float64), torch.tensor([0.5, 1.5])
+    inertia, bias, gravity = GPInverseDynamics.components(model, q, qd.double())
+    np.testing.assert_allclose(inertia.numpy(), model.inertia.numpy())
+    np.testing.assert_allclose(gravity.numpy(), model.bias(q, torch.zeros(2)).numpy())
+    dce = GPFLDCE()
+    dce.bind(None, model)  # type: ignore[arg-type]
+    a = np.array([3.0, -7.0])
+    expected = model.inertia.numpy() @ a + model.bias(q, qd.double()).numpy()
+    np.testing.assert_allclose(dce.torque(q.numpy(), qd.numpy(), a), expected)
+
+
+@pytest.mark.parametrize("kernel", ["gip", "se"])
+def test_gp_fl_equals_gp_fl_dce_exactly_under_gip_only(arm: PyBulletArm, kernel: str) -> None:
+    """Thesis §5.4.2: a GIP model is affine in q̈, so f̂(q, q̇, a) = B̂(q) a + n̂(q, q̇) and
+    the two controllers command the same torque; an SE model is not (they differ)."""
+    from mcpilco.kernels import SquaredExponential
+
+    factory = partial(GeometricPolynomial if kernel == "gip" else SquaredExponential)
+    rng = np.random.default_rng(4)
+    model = GPInverseDynamics(factory, 7)
+    with torch.no_grad():
+        for parameter in model.gp.kernel.parameters():
+            parameter.add_(0.3 * torch.randn(parameter.shape, dtype=parameter.dtype))
+    model.condition(true_dynamics_data(arm, rng, 200))
+    gp_fl, dce = GPFL(), GPFLDCE()
+    for controller in (gp_fl, dce):
+        controller.bind(arm, model)
+    assert model.affine_in_accelerations == (kernel == "gip")
+    for _ in range(5):
+        q, qd = rng.uniform(-1, 1, 7), rng.normal(0, 1, 7)
+        reference = (q + rng.normal(0, 0.01, 7), qd + rng.normal(0, 0.1, 7), rng.normal(0, 5, 7))
+        first, second = gp_fl(q, qd, reference), dce(q, qd, reference)
+        inertia, bias, _ = model.components(torch.tensor(q), torch.tensor(qd))
+        composed = inertia.numpy() @ gp_fl.acceleration(q, qd, reference) + bias.numpy()
+        np.testing.assert_allclose(second, first if kernel == "gip" else composed, rtol=1e-12)
+        if kernel == "gip":  # the algebra: f̂(q, q̇, a) = B̂ a + n̂ from n + 2 GP rows
+            np.testing.assert_allclose(first, composed, rtol=1e-9, atol=1e-9 * np.abs(first).max())
+        else:
+            assert np.abs(first - composed).max() > 1e-6 * np.abs(first).max()
+
+
 TINY = [
     "data.duration=2.0",
     "gp.fit_points=100",
     "gp.max_iterations=5",
     "reference.duration=0.3",
-    "reference.settle=0.2",
+    "task.settle=0.2",
     "reference.seeds=[0]",
     "threads=1",
 ]

@@ -29,7 +29,7 @@ CGPDM_TINY = [
 ]  # fmt: skip
 CONTROL_TINY = [
     "data.duration=2.0", "gp.fit_points=100", "gp.max_iterations=5", "reference.duration=0.3",
-    "reference.settle=0.2", "threads=1", "controller=gp_fl",
+    "task.settle=0.2", "threads=1", "controller=gp_fl",
 ]  # fmt: skip
 
 SLOW = pytest.mark.slow
@@ -179,7 +179,7 @@ def test_control_rerun_skips_finished_seeds_and_never_duplicates(tmp_path: Path)
     table.iloc[:1].to_csv(run_dir / "summary.csv", index=False)  # killed after seed 0
     again = run("runners.control", *CONTROL_TINY, models, seeds, f"hydra.run.dir={run_dir}")
     assert again.returncode == 0, again.stderr[-2000:]
-    assert "1 reference seeds finished before" in output(again)
+    assert "1 references finished before" in output(again)
     rerun = pd.read_csv(run_dir / "summary.csv")
     assert rerun["seed"].tolist() == [0, 1, 2]
     pd.testing.assert_frame_equal(
@@ -392,7 +392,7 @@ def test_sigterm_is_handled_like_ctrl_c_and_the_rerun_completes(tmp_path: Path) 
     process.send_signal(signal.SIGTERM)
     text, _ = process.communicate(timeout=120)
     assert process.returncode == 143, text[-2000:]
-    assert "terminated (SIGTERM); the finished reference seeds are kept" in text
+    assert "terminated (SIGTERM); the finished references are kept" in text
     assert "Traceback" not in text and (run_dir / "failed.txt").is_file()
     finished = pd.read_csv(run_dir / "summary.csv")["seed"].tolist()
     assert finished == list(range(len(finished))) and len(finished) < 10
