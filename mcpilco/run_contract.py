@@ -226,8 +226,8 @@ TRAIN = RunKind(
 )
 CONTROL = RunKind(
     "control",
-    unit="reference seed",
-    unit_key="seed",
+    unit="reference",
+    unit_key="reference",
     machine_keys=("threads", "fit_model", "tracking.rerun"),
     recognises=lambda config: "robot" in config and "controller" in config,
 )
