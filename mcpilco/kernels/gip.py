@@ -103,16 +103,49 @@ class GeometricPolynomial(Kernel):
         prismatic = torch.stack([q, torch.zeros_like(q)], -1)
         return torch.where(self.revolute[:, None], revolute, prismatic)
 
+    def _joint_coefficients(self) -> torch.Tensor:
+        """λ ``[G, n, 6]``: joint j's k_P²(q̃_j, q̃_j') = Σ_m λ_m φ_m(q̃_j) φ_m(q̃_j') over the
+        monomials φ(a, b) = (1, a, b, a², ab, b²) of q̃_j = (a, b) (the product of its two
+        factors (o_r + w_ra aa' + w_rb bb') expanded)."""
+        offsets = torch.exp(self.log_joint_offset)  # [G, n, 2 factors]
+        weights = torch.exp(self.log_joint_weight)  # [G, n, 2 factors, 2 features]
+        o1, o2 = offsets.unbind(-1)
+        (w1a, w1b), (w2a, w2b) = weights[..., 0, :].unbind(-1), weights[..., 1, :].unbind(-1)
+        return torch.stack(
+            [
+                o1 * o2,
+                o1 * w2a + o2 * w1a,
+                o1 * w2b + o2 * w1b,
+                w1a * w2a,
+                w1a * w2b + w1b * w2a,
+                w1b * w2b,
+            ],
+            -1,
+        )
+
+    @staticmethod
+    def _monomials(features: torch.Tensor) -> torch.Tensor:
+        """φ ``[N, n, 6]`` = (1, a, b, a², ab, b²) of joint features ``[N, n, 2]``."""
+        a, b = features.unbind(-1)
+        return torch.stack([torch.ones_like(a), a, b, a * a, a * b, b * b], -1)
+
     def _configuration(self, f1: torch.Tensor, f2: torch.Tensor) -> torch.Tensor:
-        """k_Q ``[G, N1, N2]`` from joint features ``[N1, n, 2]``, ``[N2, n, 2]``."""
-        weights = torch.exp(self.log_joint_weight)  # [G, n, 2, 2]
-        offsets = torch.exp(self.log_joint_offset)  # [G, n, 2]
+        """k_Q ``[G, N1, N2]`` from joint features ``[N1, n, 2]``, ``[N2, n, 2]``: joints
+        taken two at a time, each pair's k_P² k_P² one matmul over its 36 monomial
+        products (exact; about 3.5× faster with its gradient than joint by joint at
+        N = 1000, 7 joints — the product of 2n [G, N1, N2] factors is memory-bound)."""
+        coefficients = self._joint_coefficients()  # [G, n, 6]
+        phi1, phi2 = self._monomials(f1), self._monomials(f2)  # [N, n, 6]
         total: torch.Tensor | None = None
-        for joint in range(f1.shape[1]):
-            scaled = f1[None, None, :, joint, :] * weights[:, joint, :, None, :]  # [G, 2, N1, 2]
-            factors = torch.matmul(scaled, f2[:, joint, :].T) + offsets[:, joint, :, None, None]
-            product = factors.prod(dim=1)  # [G, N1, N2]
-            total = product if total is None else total * product
+        for j in range(0, f1.shape[1], 2):
+            if j + 1 < f1.shape[1]:
+                left = (phi1[:, j, :, None] * phi1[:, j + 1, None, :]).flatten(1)  # [N1, 36]
+                right = (phi2[:, j, :, None] * phi2[:, j + 1, None, :]).flatten(1)
+                weight = (coefficients[:, j, :, None] * coefficients[:, j + 1, None, :]).flatten(1)
+            else:
+                left, right, weight = phi1[:, j], phi2[:, j], coefficients[:, j]
+            block = torch.matmul(left[None] * weight[:, None, :], right.T)  # [G, N1, N2]
+            total = block if total is None else total * block
         assert total is not None
         return total
 
