@@ -25,6 +25,7 @@ from mcpilco.control import (
 )
 from mcpilco.errors import ConfigError
 from mcpilco.kernels import GeometricPolynomial
+from mcpilco.kernels.base import KernelShape
 from mcpilco.tracking import read_run_log
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -87,6 +88,7 @@ class LinearModel:
     """A stand-in GP: f(q, q̇, q̈) = M q̈ + c(q, q̇), M fixed (what a GP mean is, locally)."""
 
     num_joints = 2
+    _step_weights = None  # GPInverseDynamics.components then evaluates the n + 2 rows
 
     def __init__(self) -> None:
         self.inertia = torch.tensor([[2.0, 0.3], [0.3, 1.0]], dtype=torch.float64)
@@ -197,6 +199,49 @@ def test_the_inertia_estimate_is_not_transposed() -> None:
     a = np.array([3.0, -7.0])
     expected = model.inertia.numpy() @ a + model.bias(q, qd.double()).numpy()
     np.testing.assert_allclose(dce.torque(q.numpy(), qd.numpy(), a), expected)
+
+
+@pytest.mark.parametrize(
+    "options", [{}, {"active_dims": [0, 1, 3, 4, 5]}, {"isotropic": True, "lengthscale": 0.7}]
+)
+def test_se_step_factors_against_the_kernel_rows(options: dict[str, object]) -> None:
+    """k(x + s e_c, X) = k(x, X) ⊙ F_c for x with x_c = 0, from the kernel's own rows;
+    a column outside active_dims gives F = 1."""
+    from mcpilco.kernels import SquaredExponential
+
+    kernel = SquaredExponential(KernelShape(3, 6), **options)  # type: ignore[arg-type]
+    with torch.no_grad():
+        for parameter in kernel.parameters():
+            parameter.add_(0.3 * torch.randn(parameter.shape, dtype=parameter.dtype))
+    generator = torch.Generator().manual_seed(0)
+    x2 = torch.randn(40, 6, dtype=torch.float64, generator=generator)
+    x = torch.randn(1, 6, dtype=torch.float64, generator=generator)
+    columns, steps = [2, 3, 5], [0.4, -1.3, 2.0]
+    factors = kernel.step_factors(x2, columns, steps)
+    for i, (column, step) in enumerate(zip(columns, steps, strict=True)):
+        base, moved = x.clone(), x.clone()
+        base[0, column], moved[0, column] = 0.0, step
+        expected = kernel(moved, x2)[:, 0]
+        torch.testing.assert_close(kernel(base, x2)[:, 0] * factors[:, i], expected)
+
+
+def test_se_components_from_two_rows_equal_the_n_plus_2_rows(arm: PyBulletArm) -> None:
+    """GPInverseDynamics.components with the SE step factors (two kernel rows) against
+    f̂ evaluated at the n + 2 rows [q, 0, 0], [q, 0, 1_j], [q, q̇, 0] directly."""
+    from mcpilco.kernels import SquaredExponential
+
+    rng = np.random.default_rng(5)
+    model = GPInverseDynamics(partial(SquaredExponential), 7)
+    model.condition(true_dynamics_data(arm, rng, 200))
+    assert model._step_weights is not None
+    for _ in range(3):
+        q, qd = torch.tensor(rng.uniform(-1, 1, 7)), torch.tensor(rng.normal(0, 1, 7))
+        values = model.torques(model.components_inputs(q, qd))  # the n + 2 rows
+        inertia, bias, gravity = model.components(q, qd)
+        scale = values.abs().max().item()
+        torch.testing.assert_close(gravity, values[0], rtol=0, atol=1e-9 * scale)
+        torch.testing.assert_close(inertia, (values[1:-1] - values[0]).T, rtol=0, atol=1e-9 * scale)
+        torch.testing.assert_close(bias, values[-1], rtol=0, atol=1e-9 * scale)
 
 
 @pytest.mark.parametrize("kernel", ["gip", "se"])

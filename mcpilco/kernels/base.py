@@ -107,6 +107,15 @@ class Kernel(ExtensionPoint, nn.Module, ABC):
     """Input columns every function of the kernel's space is affine in (a GP mean is then
     affine in them; the GIP kernel: the accelerations)."""
 
+    def step_factors(
+        self, x2: torch.Tensor, columns: Sequence[int], steps: Sequence[float]
+    ) -> torch.Tensor | None:
+        """F ``[G, C, N]`` with k(x + s_c e_c, x2) = k(x, x2) ⊙ F_c for every x whose
+        column c is 0 (a unit step along one input costs a product, not a kernel row: the
+        inertia columns of :meth:`~mcpilco.control.GPInverseDynamics.components`), or None
+        where the kernel has no such form (the default). Constants: no gradient."""
+        return None
+
     def prepare_first_order(self, x2: torch.Tensor) -> FirstOrderCross | None:
         """The cross-covariance at fixed training inputs ``x2`` with its first derivatives
         formed in the forward pass (:mod:`mcpilco.kernels.first_order`), or None where

@@ -131,6 +131,24 @@ class SquaredExponential(Kernel):
         variance = torch.exp(self.log_variance.detach())[:, None]  # [G, 1]
         return _FirstOrderSE(inverse_lengthscale, training.detach(), variance, self.active_dims)
 
+    @torch.no_grad()
+    def step_factors(
+        self, x2: torch.Tensor, columns: Sequence[int], steps: Sequence[float]
+    ) -> torch.Tensor:
+        """From x_c = 0 to s the exponent −(x_c − x2_c)²/ℓ_c² grows by (2 s x2_c − s²)/ℓ_c²,
+        so F_c = exp((2 s x2_c − s²)/ℓ_c²) (1 for a column the kernel does not look at)."""
+        dims = self.active_dims if self.active_dims is not None else range(x2.shape[-1])
+        dims = list(dims)
+        inverse_square = torch.exp(-2.0 * self.log_lengthscale)  # [G, D or 1]
+        factors = torch.ones(
+            self.shape.num_outputs, len(columns), x2.shape[-2], dtype=x2.dtype, device=x2.device
+        )
+        for i, (column, step) in enumerate(zip(columns, steps, strict=True)):
+            if column in dims:
+                weight = inverse_square[:, dims.index(column) if inverse_square.shape[1] > 1 else 0]
+                factors[:, i] = torch.exp((2.0 * step * x2[:, column] - step**2) * weight[:, None])
+        return factors
+
     def diag(self, x: torch.Tensor) -> torch.Tensor:
         return torch.exp(self.log_variance)[:, None].expand(-1, x.shape[-2])
 
