@@ -244,6 +244,26 @@ def test_se_components_from_two_rows_equal_the_n_plus_2_rows(arm: PyBulletArm) -
         torch.testing.assert_close(bias, values[-1], rtol=0, atol=1e-9 * scale)
 
 
+def test_float32_prediction_is_refused_where_it_changes_the_torques(arm: PyBulletArm) -> None:
+    """An ill-conditioned SE posterior (smooth kernel, tiny noise: α cancels) changes in
+    float32 and binding a float32 controller to it fails in one line naming the key; a GIP
+    posterior on the same data predicts in float32 within 1e-4 of its torque scale."""
+    from mcpilco.kernels import SquaredExponential
+
+    data = true_dynamics_data(arm, np.random.default_rng(6), 1000)
+    smooth = GPInverseDynamics(partial(SquaredExponential, lengthscale=10.0), 7, noise_std=1e-3)
+    smooth.condition(data)
+    with pytest.raises(ConfigError, match=r"^controller\.prediction_dtype: float32 prediction"):
+        GPFL(prediction_dtype="float32").bind(arm, smooth)
+    gip = GPInverseDynamics(partial(GeometricPolynomial), 7)
+    gip.condition(data)
+    inputs = torch.as_tensor(data.inputs[:50])
+    exact = gip.torques(inputs)
+    GPFL(prediction_dtype="float32").bind(arm, gip)
+    difference = (gip.torques(inputs) - exact).abs().max()
+    assert 0 < difference < 1e-4 * exact.abs().max(), difference
+
+
 @pytest.mark.parametrize("kernel", ["gip", "se"])
 def test_gp_fl_equals_gp_fl_dce_exactly_under_gip_only(arm: PyBulletArm, kernel: str) -> None:
     """Thesis §5.4.2: a GIP model is affine in q̈, so f̂(q, q̇, a) = B̂(q) a + n̂(q, q̇) and

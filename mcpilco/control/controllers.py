@@ -49,7 +49,10 @@ class TrackingController(ExtensionPoint, ABC):
         predict in ``prediction_dtype``)."""
         self.robot, self.model = robot, model
         if model is not None and hasattr(model, "predict_in"):
-            model.predict_in(self.prediction_dtype)
+            try:
+                model.predict_in(self.prediction_dtype)
+            except ConfigError as error:
+                raise ConfigError(f"controller.prediction_dtype: {error}") from None
 
     def acceleration(
         self,
