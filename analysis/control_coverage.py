@@ -1,6 +1,6 @@
 """Does a tracking error come from leaving the training data? (issue 56's diagnosis)
 
-    python -m analysis.control_coverage RUN_DIR_OR_SWEEP... [--out FILE.md]
+    python -m analysis.control_coverage RUN_DIR_OR_SWEEP... [--out FILE.md] [--csv FILE.csv]
 
 For each control run directory: its references are rebuilt from the run's config (targets
 checked first; nothing else in the directory executes) and sampled at 1 kHz; the training
@@ -44,7 +44,7 @@ def training_ranges(model_dir: Path, num_joints: int) -> dict[str, np.ndarray]:
 def coverage_rows(run: Path) -> list[dict[str, object]]:
     config = load_run_config(run)
     family: ReferenceFamily = make(config.reference)
-    num_joints = len(config.robot.home) if config.robot.get("home") else 7
+    num_joints = int(config.robot.num_joints)
     references = family.references(num_joints)
     ranges = training_ranges(Path(str(config.model_dir)), num_joints)
     summary = RunDirectory(run).summary().set_index("reference")
@@ -55,7 +55,7 @@ def coverage_rows(run: Path) -> list[dict[str, object]]:
         time = np.arange(0.0, reference.duration, 1e-3)
         values = dict(zip(QUANTITIES, reference(time), strict=True))  # each [T, n]
         late = time >= settle
-        row: dict[str, object] = {"run": "/".join(run.parts[-3:]), "reference": reference.label}
+        row: dict[str, object] = {"run": "/".join(run.parts[-4:]), "reference": reference.label}
         for name, (low, high) in ranges.items():
             outside = ((values[name] < low) | (values[name] > high)).any(axis=1)
             row[f"outside_{name}"] = float(outside[late].mean())
@@ -93,9 +93,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("runs", nargs="+", type=Path, help="control run directories or sweeps")
     parser.add_argument("--out", type=Path, default=None, help="write the table here")
+    parser.add_argument("--csv", type=Path, default=None, help="and the rows as CSV here")
     args = parser.parse_args()
-    rows = [row for run in run_dirs(args.runs) for row in coverage_rows(run)]
-    text = coverage_markdown(pd.DataFrame(rows))
+    table = pd.DataFrame([row for run in run_dirs(args.runs) for row in coverage_rows(run)])
+    if args.csv is not None:
+        table.to_csv(args.csv, index=False)
+    text = coverage_markdown(table)
     if args.out is None:
         print(text, end="")  # noqa: T201
     else:

@@ -16,7 +16,7 @@ import argparse
 from pathlib import Path
 
 import pandas as pd
-from omegaconf import OmegaConf
+from omegaconf import DictConfig, OmegaConf
 from scipy.stats import binomtest
 
 from analysis.control_report import run_dirs, task_of
@@ -30,8 +30,23 @@ def wilson(successes: int, trials: int) -> tuple[float, float]:
     return float(interval.low), float(interval.high)
 
 
+def _model_label(config: DictConfig, controller: str) -> str:
+    if controller == "TrueModelFL":
+        return "—"
+    label = (
+        f"{kernel_label(OmegaConf.to_container(config.kernel))} "
+        f"(`{Path(str(config.model_dir)).name}`)"
+    )
+    dtype = config.controller.get("prediction_dtype", "float64")
+    return label if dtype == "float64" else f"{label}, {dtype}"
+
+
 def generalisation_table(runs: list[Path]) -> pd.DataFrame:
-    rows = []
+    """One row per run; ``feasible`` counts the run's references that true-model FL under
+    the same limits tracks (from the TrueModelFL run of the same references and initial
+    error among ``runs``; NaN without one) and ``feasible_successes`` this run's successes
+    on them."""
+    rows, feasible_by_task = [], {}
     for run in runs:
         config = OmegaConf.load(run / "config.yaml")
         summary = RunDirectory(run).summary()
@@ -41,15 +56,24 @@ def generalisation_table(runs: list[Path]) -> pd.DataFrame:
         controller = str(config.controller._target_).rsplit(".", 1)[-1]
         low, high = wilson(int(summary["success"].sum()), len(summary))
         saturated = summary.get("saturated_share", pd.Series([0.0] * len(summary)))
+        labels = [str(label) for label in summary["reference"]]
+        task = (
+            str(config.reference._target_),
+            tuple(labels),
+            float(task_of(config).initial_error),
+        )
+        succeeded = {
+            str(r) for r, ok in zip(summary["reference"], summary["success"], strict=True) if ok
+        }
+        if controller == "TrueModelFL":
+            feasible_by_task[task] = succeeded
         rows.append(
             {
-                "family": str(config.reference._target_).rsplit(".", 1)[-1],
+                "family": task[0].rsplit(".", 1)[-1],
+                "draws": f"{labels[0]}–{labels[-1]}" if len(labels) > 1 else labels[0],
                 "controller": controller,
-                "model": "—"
-                if controller == "TrueModelFL"
-                else f"{kernel_label(OmegaConf.to_container(config.kernel))} "
-                f"(`{Path(str(config.model_dir)).name}`)",
-                "initial_error_rad": float(task_of(config).initial_error),
+                "model": _model_label(config, controller),
+                "initial_error_rad": task[2],
                 "references": len(summary),
                 "successes": int(summary["success"].sum()),
                 "wilson_low": low,
@@ -58,24 +82,37 @@ def generalisation_table(runs: list[Path]) -> pd.DataFrame:
                 "saturated_references": int((saturated > 0).sum()),
                 "mean_saturated_share": float(saturated.mean()),
                 "median_worst_deg": float(steady.max(axis=1).median()),
+                "_task": task,
+                "_succeeded": succeeded,
             }
         )
-    return pd.DataFrame(rows)
+    for row in rows:
+        feasible = feasible_by_task.get(row["_task"])
+        row["feasible"] = float("nan") if feasible is None else len(feasible)
+        row["feasible_successes"] = (
+            float("nan") if feasible is None else len(feasible & row["_succeeded"])
+        )
+    return pd.DataFrame(rows).drop(columns=["_task", "_succeeded"])
 
 
 def generalisation_markdown(table: pd.DataFrame) -> str:
     lines = [
-        "| references | controller | model | initial error [rad] | success | Wilson 95 % | "
-        "diverged | met the torque limits (mean share of steps) | median worst error [deg] |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| references | draws | controller | model | initial error [rad] | success | "
+        "Wilson 95 % | on those true-model FL tracks | diverged | with torque cut (mean share "
+        "of steps) | median worst error [deg] |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
-    order = table.sort_values(["family", "initial_error_rad", "controller", "model"])
+    order = table.sort_values(["family", "draws", "initial_error_rad", "controller", "model"])
     for row in order.itertuples():
+        feasible = (
+            "—" if pd.isna(row.feasible) else f"{int(row.feasible_successes)}/{int(row.feasible)}"
+        )
         lines.append(
-            f"| {row.family} | {row.controller} | {row.model} | {row.initial_error_rad:g} | "
-            f"{row.successes}/{row.references} | {row.wilson_low:.2f}–{row.wilson_high:.2f} | "
-            f"{row.diverged} | {row.saturated_references} ({100 * row.mean_saturated_share:.1f} %) "
-            f"| {row.median_worst_deg:.2f} |"
+            f"| {row.family} | {row.draws} | {row.controller} | {row.model} | "
+            f"{row.initial_error_rad:g} | {row.successes}/{row.references} | "
+            f"{row.wilson_low:.2f}–{row.wilson_high:.2f} | {feasible} | {row.diverged} | "
+            f"{row.saturated_references} ({100 * row.mean_saturated_share:.1f} %) | "
+            f"{row.median_worst_deg:.2f} |"
         )
     return "\n".join(lines) + "\n"
 

@@ -115,6 +115,12 @@ def tracking_table(runs: list[Path]) -> pd.DataFrame:
                 "diverged": int(summary["diverged"].sum()),
                 "worst_steady_state_deg": steady.max(axis=0).round(3).tolist(),
                 "latency_p99_ms": float(summary["latency_p99_ms"].max()),
+                "max_torque_nm": float(
+                    summary[[c for c in summary.columns if c.startswith("max_torque_")]].max().max()
+                ),
+                "saturated_share": float(summary["saturated_share"].mean())
+                if "saturated_share" in summary
+                else float("nan"),
             }
         )
     return pd.DataFrame(rows)
@@ -123,15 +129,18 @@ def tracking_table(runs: list[Path]) -> pd.DataFrame:
 def tracking_markdown(table: pd.DataFrame) -> str:
     lines = [
         "| controller | model | initial error [rad] | success / seeds | diverged | worst "
-        "steady-state error per joint [deg] | p99 latency in the run [ms] |",
-        "|---|---|---|---|---|---|---|",
+        "steady-state error per joint [deg] | largest commanded torque [N m] | steps the "
+        "torque limits cut | p99 latency in the run [ms] |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for row in table.sort_values(["initial_error_rad", "controller", "model"]).itertuples():
         worst = " ".join(f"{v:.2f}" for v in row.worst_steady_state_deg)
         kernel = "—" if row.controller == "TrueModelFL" else f"{row.kernel} (`{row.model}`)"
+        cut = "no limits" if pd.isna(row.saturated_share) else f"{100 * row.saturated_share:.1f} %"
         lines.append(
             f"| {row.controller} | {kernel} | {row.initial_error_rad:g} | "
-            f"{row.successes}/{row.seeds} | {row.diverged} | {worst} | {row.latency_p99_ms:.3f} |"
+            f"{row.successes}/{row.seeds} | {row.diverged} | {worst} | {row.max_torque_nm:.0f} "
+            f"| {cut} | {row.latency_p99_ms:.3f} |"
         )
     return "\n".join(lines) + "\n"
 

@@ -18,7 +18,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis import cgpdm_report, control_report, report, summary
+from analysis import cgpdm_report, control_coverage, control_report, report, summary
+from analysis import control_generalisation as generalisation
 from analysis.first_success import first_successes, solved_by_trial, solved_markdown
 from analysis.sweep import load_sweep
 
@@ -113,6 +114,22 @@ def control_tracking() -> str:
     return control_report.tracking_markdown(control_report.tracking_table(runs))
 
 
+def control_tracking_limits() -> str:
+    runs = control_report.run_dirs([RESULTS / "control" / "experiments_torque_limits"])
+    return control_report.tracking_markdown(control_report.tracking_table(runs))
+
+
+def control_generalisation() -> str:
+    runs = control_report.run_dirs([RESULTS / "control" / "generalisation"])
+    table = generalisation.generalisation_table(runs)
+    return generalisation.generalisation_markdown(table)
+
+
+def control_coverage_table() -> str:
+    rows = pd.read_csv(RESULTS / "control" / "generalisation" / "coverage.csv")
+    return control_coverage.coverage_markdown(rows)
+
+
 def cgpdm_errors() -> str:
     models = pd.read_csv(RESULTS / "cgpdm" / "report" / "models.csv")
     return cgpdm_report.markdown(cgpdm_report.cells(models))
@@ -133,6 +150,9 @@ TABLES: dict[str, Callable[[], str]] = {
     "ur5_df": lambda: runs_table("ur5_df", metric="mean_error_mm", unit="(mm)"),
     "control_nmse": control_nmse,
     "control_tracking": control_tracking,
+    "control_tracking_limits": control_tracking_limits,
+    "control_generalisation": control_generalisation,
+    "control_coverage": control_coverage_table,
     "cgpdm_errors": cgpdm_errors,
 }
 """Every table a results page may hold, by the name its marker gives."""
