@@ -119,6 +119,36 @@ def control_tracking_limits() -> str:
     return control_report.tracking_markdown(control_report.tracking_table(runs))
 
 
+LATENCY_LINE = re.compile(
+    r"^\s+(?P<controller>\w+)(?: \((?P<kernel>\w+), n=(?P<n>\d+), (?P<dtype>\w+)\))?\s+"
+    r"median\s+(?P<median>[\d.]+) ms\s+p99\s+(?P<p99>[\d.]+) ms$"
+)
+
+
+def control_latency() -> str:
+    """The controllers' latency per call from a committed ``runners.bench_control`` output:
+    one row per controller and kernel, one column per prediction precision."""
+    text = (RESULTS / "control" / "latency" / "2026-12-07_fitted_models.txt").read_text()
+    cells: dict[tuple[str, str], dict[str, str]] = {}
+    for line in text.splitlines():
+        match = LATENCY_LINE.match(line)
+        if match:
+            kernel = match["kernel"] or "—"
+            dtype = match["dtype"] or "float64"
+            label = f"{float(match['median']):.3f} / {float(match['p99']):.3f}"
+            cells.setdefault((match["controller"], kernel), {})[dtype] = label
+    lines = [
+        "| controller | kernel | float64 median / p99 [ms] | float32 median / p99 [ms] |",
+        "|---|---|---|---|",
+    ]
+    for (controller, kernel), by_dtype in cells.items():
+        lines.append(
+            f"| {controller} | {kernel} | {by_dtype.get('float64', '—')} | "
+            f"{by_dtype.get('float32', '—')} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def control_generalisation() -> str:
     runs = control_report.run_dirs([RESULTS / "control" / "generalisation"])
     table = generalisation.generalisation_table(runs)
@@ -152,6 +182,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "control_tracking": control_tracking,
     "control_tracking_limits": control_tracking_limits,
     "control_generalisation": control_generalisation,
+    "control_latency": control_latency,
     "control_coverage": control_coverage_table,
     "cgpdm_errors": cgpdm_errors,
 }

@@ -20,7 +20,8 @@ from mcpilco.optim.rollout import ParticleRollout
 
 CONFIG_DIR = Path(__file__).resolve().parent.parent / "conf"
 CONTROL_ONLY = {
-    "robot": None, "controller": None, "kernel": {"gip"}, "cloth": None, "cgpdm": None,
+    "robot": None, "controller": None, "reference": None, "kernel": {"gip"}, "cloth": None,
+    "cgpdm": None,
 }  # fmt: skip
 """Groups (None: all of it) and options of runners.control (tests/test_control.py) and
 runners.cgpdm (tests/test_cgpdm_runner.py), not of runners.train: the GIP kernel's default
