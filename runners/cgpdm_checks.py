@@ -21,6 +21,7 @@ from mcpilco.checks import (
 )
 from mcpilco.cloth import ClothSimulation
 from mcpilco.errors import ConfigError
+from mcpilco.latent.split import SequenceSplit, sequence_numbers
 from runners.options import rerun_mode
 
 MAX_PHYSICS_STEPS = 10**9
@@ -46,6 +47,9 @@ def check_cgpdm_config(cfg: DictConfig) -> None:
     total = integer("data.num_sequences", data.num_sequences, minimum=2)
     integer("data.num_test", data.num_test, minimum=1)
     integer("data.num_train", data.num_train, minimum=1)
+    rule = split_rule(cfg)
+    if simulated:  # the sequence numbers are 0..num_sequences-1: checked before simulating
+        rule.check_numbers(range(total))
     if data.path is not None and not Path(text("data.path", data.path)).is_file():
         raise ConfigError(f"data.path={str(data.path)!r} is not a file")
     if data.csv_dir is not None and not Path(text("data.csv_dir", data.csv_dir)).is_dir():
@@ -91,19 +95,32 @@ def check_work(cfg: DictConfig, sequences: int, samples: int) -> None:
             )
 
 
+def split_rule(cfg: DictConfig) -> SequenceSplit:
+    """The run's training/test split from ``data.*`` and ``seed`` (keys checked)."""
+    data = cfg.data
+    return SequenceSplit(
+        num_train=int(data.num_train),
+        num_test=int(data.num_test),
+        draw=int(cfg.seed),
+        train=sequence_numbers("data.train_sequences", data.get("train_sequences")),
+        test=sequence_numbers("data.test_sequences", data.get("test_sequences")),
+        allow_overlap=boolean("data.allow_overlap", data.get("allow_overlap", False)),
+    )
+
+
 def check_training_size(cfg: DictConfig) -> None:
     """The latent dimension against the training points (PCA needs more points than
     dimensions), and the CGPDM's kernel matrices (latent map and dynamics, N² each with
     their factors and gradients) for ``data.num_train`` sequences."""
-    points = int(cfg.data.num_train) * int(cfg.excitation.num_samples)
+    points = split_rule(cfg).counts[0] * int(cfg.excitation.num_samples)
     latent_dim = cfg.cgpdm.get("latent_dim")
     if isinstance(latent_dim, int) and latent_dim >= points:
         raise ConfigError(
             f"cgpdm.latent_dim={latent_dim} must be below the {points} training points "
-            "(data.num_train x excitation.num_samples)"
+            "(training sequences x excitation.num_samples)"
         )
     fits_in_memory(
-        "data.num_train, excitation.num_samples",
+        "data.num_train (or data.train_sequences), excitation.num_samples",
         8.0 * points**2 * 8,
         f"training on {points} points",
     )

@@ -34,7 +34,7 @@ from mcpilco.cloth.store import DatasetKey, check_compatible, load_or_generate
 from mcpilco.errors import RunFileError
 from mcpilco.latent import CGPDM
 from mcpilco.latent.evaluation import point_distance_per_step
-from mcpilco.latent.study import check_sizes, evaluate, score, split, train, training_data
+from mcpilco.latent.study import evaluate, score, train, training_data
 from mcpilco.latent.training import CGPDMTraining
 from mcpilco.run_contract import CGPDM as CGPDM_KIND
 from mcpilco.run_contract import CLOTH_DATASETS, RunContract
@@ -42,7 +42,7 @@ from mcpilco.run_storage import RunDirectory, load_tensors
 from mcpilco.safe_config import check_targets
 from mcpilco.tracking import McapLogger
 from mcpilco.tracking.metadata import run_metadata
-from runners.cgpdm_checks import check_cgpdm_config, check_training_size
+from runners.cgpdm_checks import check_cgpdm_config, check_training_size, split_rule
 from runners.cloth_data import (
     excitation_from,
     generate_datasets,
@@ -97,7 +97,6 @@ def prepare(cfg: DictConfig) -> CGPDMSetup:
     device = resolve_device(str(cfg.device))
     fit = CGPDMTraining(**OmegaConf.to_container(cfg.train))  # type: ignore[arg-type]
     if cfg.data.csv_dir is None and cfg.data.path is None:  # checked before simulating
-        check_sizes(cfg.data.num_sequences, cfg.data.num_test, cfg.data.num_train)
         model.check_observation_dim(ClothSimulation.observation_dim)
     check_training_size(cfg)
     return CGPDMSetup(cloth, excitation, model, fit, device)
@@ -130,19 +129,15 @@ def work(cfg: DictConfig, setup: CGPDMSetup, contract: RunContract, finished: li
     """Data, training (or the model trained here before), then every test sequence not
     yet in the summary: its log chunk, then its row."""
     storage = contract.storage
-    if len(finished) == cfg.data.num_test:
+    rule = split_rule(cfg)
+    if len(finished) == rule.counts[1]:
         log.info("%s is complete; nothing to do", storage.path)
         return
     dataset = load_dataset(cfg, setup.cloth, setup.excitation)
-    train_rows, test_rows = split(dataset, cfg.data.num_test, cfg.data.num_train, cfg.seed)
+    train_rows, test_rows = rule.rows(dataset)
     setup.model.check_observation_dim(dataset.observations.shape[-1])
     training, test = dataset.subset(train_rows), dataset.subset(test_rows)
-    storage.write_text(
-        "training_set.json",
-        json.dumps(
-            {"draw": cfg.seed, "train": training.indices.tolist(), "test": test.indices.tolist()}
-        ),
-    )
+    storage.write_text("training_set.json", json.dumps(rule.record(dataset, train_rows, test_rows)))
     setup.model.set_data(training_data(training, setup.device))
     log.info(
         "training the %s CGPDM on %d sequences (R=%s, draw %d): %d outer L-BFGS steps",
@@ -172,13 +167,15 @@ def work(cfg: DictConfig, setup: CGPDMSetup, contract: RunContract, finished: li
             "training_latent": setup.model.sequences().detach().cpu().numpy(),
         },
     )
-    results = TestResults(test, latent, predicted, errors, seconds, predict_seconds, loss)
+    results = TestResults(
+        test, latent, predicted, errors, seconds, predict_seconds, loss, training.indices.tolist()
+    )
     log_test_sequences(cfg, contract, results, [int(s) for s in finished])
     table = storage.summary()
     log.info(
         "R=%s n=%d draw=%d %s: mean error %.4f m (still %.4f, rigid %.4f)",
         cfg.data.range_deg,
-        cfg.data.num_train,
+        len(train_rows),
         cfg.seed,
         cfg.cgpdm_name,
         table.error_m.mean(),
@@ -208,6 +205,7 @@ class TestResults:
     train_seconds: float
     predict_seconds: float
     loss: float
+    training_sequences: list[int]
 
 
 def log_test_sequences(
@@ -236,7 +234,7 @@ def log_test_sequences(
                 "trial": k,
                 "sequence": int(test.indices[k]),
                 "range_deg": cfg.data.range_deg,
-                "num_train": cfg.data.num_train,
+                "num_train": len(results.training_sequences),
                 "draw": cfg.seed,
                 "variant": cfg.cgpdm_name,
                 "error_m": float(errors["model"][k]),

@@ -85,6 +85,9 @@ CGPDM_BAD: dict[str, list[Any]] = {
     "data.num_sequences": [1, -1, 1.5, "abc"],
     "data.num_test": [*COUNT_BAD, 50],
     "data.num_train": [*COUNT_BAD, 41],
+    "data.train_sequences": ["abc", [], [1, 1], [-1], [1.5], [True], [60]],  # 50 simulated
+    "data.test_sequences": ["abc", 5, [], [2, 2], [-3], [99]],
+    "data.allow_overlap": BOOL_BAD,
     "data.dir": ["", 5, "A_FILE/data"],  # under a file (made by the test)
     "data.path": ["no/such/file.npz", 5],
     "data.csv_dir": ["no/such/folder", 5],

@@ -9,6 +9,7 @@ stream, so any subset can be simulated alone and equals the same sequences of th
 from __future__ import annotations
 
 import json
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -172,35 +173,77 @@ def generate(
 def read_csv_sequences(directory: Path, duplicate_controls: bool = False) -> ClothDataset:
     """Sequences in the CSV layout of the authors' public CGPDM library: for each k,
     ``state_samples_*_k.csv`` (rows t: x₁ y₁ z₁ x₂ … of every point) and
-    ``input_samples_*_k.csv`` (rows t: the end-effector displacement). Rows of the input
-    file beyond N − 1 are ignored; ``duplicate_controls`` turns a 3-column displacement into
-    the 6-column control of two end-effectors."""
+    ``input_samples_*_k.csv`` (rows t: the end-effector displacement; its columns are the
+    controls). Rows of the input file beyond N − 1 are ignored; ``duplicate_controls``
+    turns a 3-column displacement into the 6-column control of two end-effectors.
+
+    Every malformed file is refused in one line naming it, before any training: not
+    numbers, no rows, a coordinate count that is not a multiple of 3, column counts or
+    lengths that differ between sequences, too few input rows, an input file without its
+    state file or the reverse."""
     states = sorted(directory.glob("state_samples*.csv"), key=_trailing_number)
     if not states:
         raise ConfigError(f"data.csv_dir={str(directory)!r} holds no state_samples*.csv files")
+    expected_inputs = {
+        s.with_name(s.name.replace("state_samples", "input_samples")).name for s in states
+    }
+    orphans = sorted(p.name for p in directory.glob("input_samples*.csv"))
+    orphans = [name for name in orphans if name not in expected_inputs]
+    if orphans:
+        raise ConfigError(
+            f"data.csv_dir: {orphans[0]} has no state_samples file"
+            + (f" ({len(orphans)} input files without one)" if len(orphans) > 1 else "")
+        )
     observations, controls, indices = [], [], []
+    first: tuple[int, int, int] = (0, 0, 0)  # state columns, state rows, input columns
     for state_path in states:
         number = _trailing_number(state_path)
         input_path = state_path.with_name(state_path.name.replace("state_samples", "input_samples"))
         if not input_path.exists():
             raise ConfigError(f"data.csv_dir: {state_path.name} has no {input_path.name}")
-        y = np.loadtxt(state_path, delimiter=",", ndmin=2)
-        u = np.loadtxt(input_path, delimiter=",", ndmin=2)
+        y, u = _numbers(state_path), _numbers(input_path)
+        if y.shape[1] % 3:
+            raise ConfigError(
+                f"{state_path.name}: {y.shape[1]} columns, not x y z of whole points "
+                "(a multiple of 3)"
+            )
+        if not observations:
+            first = (y.shape[1], len(y), u.shape[1])
+        for file, name, value, wanted in (
+            (state_path, "columns", y.shape[1], first[0]),
+            (state_path, "rows", len(y), first[1]),
+            (input_path, "columns", u.shape[1], first[2]),
+        ):
+            if value != wanted:
+                raise ConfigError(
+                    f"{file.name}: {value} {name}, but the first sequence's file has {wanted}"
+                )
         if len(u) < len(y) - 1:
             raise ConfigError(f"{input_path.name}: {len(u)} rows, need {len(y) - 1}")
         u = u[: len(y) - 1]
         observations.append(y)
         controls.append(np.concatenate([u, u], axis=1) if duplicate_controls else u)
         indices.append(number)
-    lengths = {len(y) for y in observations}
-    if len(lengths) != 1:
-        raise ConfigError(f"data.csv_dir: sequences differ in length {sorted(lengths)}")
     return ClothDataset(
         np.stack(observations),
         np.stack(controls),
         np.asarray(indices),
         {"source": f"csv:{directory}"},
     )
+
+
+def _numbers(path: Path) -> np.ndarray:
+    """The rows ``[T, C]`` of a numeric CSV file; one line naming it otherwise."""
+    try:
+        with warnings.catch_warnings():  # an empty file: reported below, in one line
+            warnings.simplefilter("ignore", UserWarning)
+            values = np.loadtxt(path, delimiter=",", ndmin=2)
+    except (ValueError, OSError, UnicodeDecodeError) as error:
+        reason = str(error).splitlines()[0] if str(error) else type(error).__name__
+        raise ConfigError(f"{path.name}: not a numeric CSV file ({reason})") from None
+    if values.size == 0:
+        raise ConfigError(f"{path.name}: no rows")
+    return values
 
 
 def _trailing_number(path: Path) -> int:

@@ -18,6 +18,7 @@ from mcpilco.cloth.dataset import ClothDataset
 from mcpilco.errors import ConfigError
 from mcpilco.latent.cgpdm import CGPDM, TrainingData
 from mcpilco.latent.evaluation import point_distance, rigid_baseline, still_baseline
+from mcpilco.latent.split import SequenceSplit
 from mcpilco.latent.training import CGPDMTraining
 
 
@@ -39,12 +40,10 @@ def check_sizes(total: int, num_test: int, num_train: int) -> None:
 def split(
     dataset: ClothDataset, num_test: int, num_train: int, draw: int
 ) -> tuple[list[int], list[int]]:
-    """Row numbers of (training set, test set); one-line errors on impossible sizes."""
-    total = len(dataset.indices)
-    check_sizes(total, num_test, num_train)
-    available = total - num_test
-    order = np.random.default_rng(np.random.SeedSequence([draw, 0xC10])).permutation(available)
-    return sorted(int(i) for i in order[:num_train]), list(range(available, total))
+    """Row numbers of (training set, test set) by the default rules
+    (:class:`~mcpilco.latent.split.SequenceSplit`); one-line errors on impossible sizes."""
+    check_sizes(len(dataset.indices), num_test, num_train)
+    return SequenceSplit(num_train, num_test, draw).rows(dataset)
 
 
 @dataclass
