@@ -48,11 +48,11 @@ def load_models(paths: list[Path]) -> tuple[pd.DataFrame, list[Path]]:
             left_out.append(run)
             continue
         try:
-            table = RunDirectory(run).summary()
-            row = table.groupby(MODEL_COLUMNS, as_index=False).agg(
-                error_m=("error_m", "mean"), still_error_m=("still_error_m", "mean"),
-                rigid_error_m=("rigid_error_m", "mean"), fit_seconds=("fit_seconds", "first"),
-                predict_seconds=("predict_seconds", "first"), test_sequences=("error_m", "size"),
+            table = with_units(RunDirectory(run).summary())
+            row = table.groupby([*MODEL_COLUMNS, "units"], as_index=False).agg(
+                error=("error", "mean"), still_error=("still_error", "mean"),
+                rigid_error=("rigid_error", "mean"), fit_seconds=("fit_seconds", "first"),
+                predict_seconds=("predict_seconds", "first"), test_sequences=("error", "size"),
             )  # fmt: skip
             row["left_region"] = left_training_region(run / "predictions.npz")
         except (
@@ -76,6 +76,31 @@ def load_models(paths: list[Path]) -> tuple[pd.DataFrame, list[Path]]:
                 left_out.append(failed.parent)
     models = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=MODEL_COLUMNS)
     return models, left_out
+
+
+def with_units(table: pd.DataFrame) -> pd.DataFrame:
+    """A summary (or a ``models.csv``) with its error columns ``error_<units>``,
+    ``still_error_<units>``, ``rigid_error_<units>`` renamed to ``error``, ``still_error``,
+    ``rigid_error`` and the units in a ``units`` column (a table that already has them is
+    returned as it is)."""
+    if "units" in table and "error" in table:
+        return table
+    suffixes = [c.removeprefix("error_") for c in table.columns if c.startswith("error_")]
+    if len(suffixes) != 1:
+        raise KeyError(f"no single error_<units> column among {list(table.columns)}")
+    units = suffixes[0]
+    renamed = table.rename(
+        columns={f"{name}_{units}": name for name in ("error", "still_error", "rigid_error")}
+    )
+    return renamed.assign(units=units)
+
+
+def units_of(table: pd.DataFrame) -> str:
+    """The one unit of ``table``'s errors; a one-line ValueError when runs mix units."""
+    units = sorted(set(table["units"]))
+    if len(units) != 1:
+        raise ValueError(f"the runs' errors are in different units {units}: report them apart")
+    return str(units[0])
 
 
 def left_training_region(predictions: Path, margin: float = 0.5) -> float:
@@ -102,16 +127,18 @@ def cells(models: pd.DataFrame) -> pd.DataFrame:
             stats.t.ppf(0.975, len(values) - 1) * values.std(ddof=1) / np.sqrt(len(values))
         )
 
+    models = with_units(models)
+    units = units_of(models)
     grouped = models.groupby(["range_deg", "variant", "num_train"])
     table = grouped.agg(
-        draws=("error_m", "size"), error_mean=("error_m", "mean"),
-        error_median=("error_m", "median"), still=("still_error_m", "mean"),
-        rigid=("rigid_error_m", "mean"), fit_seconds=("fit_seconds", "mean"),
+        draws=("error", "size"), error_mean=("error", "mean"),
+        error_median=("error", "median"), still=("still_error", "mean"),
+        rigid=("rigid_error", "mean"), fit_seconds=("fit_seconds", "mean"),
         predict_ms=("predict_seconds", lambda s: 1000 * s.mean()),
         left_region=("left_region", "mean"),
     ).reset_index()  # fmt: skip
-    table.insert(5, "error_ci95", grouped["error_m"].apply(half_width).to_numpy())
-    return table
+    table.insert(5, "error_ci95", grouped["error"].apply(half_width).to_numpy())
+    return table.assign(units=units)
 
 
 def paired(models: pd.DataFrame, first: str = "high", second: str = "low") -> pd.DataFrame:
@@ -119,7 +146,7 @@ def paired(models: pd.DataFrame, first: str = "high", second: str = "low") -> pd
     often ``first`` has the lower error, and the two-sided Wilcoxon signed-rank p-value."""
     rows = []
     for (range_deg, num_train), part in models.groupby(["range_deg", "num_train"]):
-        wide = part.pivot_table(index="draw", columns="variant", values="error_m")
+        wide = with_units(part).pivot_table(index="draw", columns="variant", values="error")
         if first not in wide or second not in wide:
             continue
         both = wide[[first, second]].dropna()
@@ -154,9 +181,10 @@ def paired_markdown(comparison: pd.DataFrame) -> str:
 
 
 def markdown(table: pd.DataFrame) -> str:
+    units = units_of(table)
     lines = [
-        "| R (deg) | variant | sequences | draws | error (m), mean ± 95 % CI | median | "
-        "left the training region | still (m) | rigid (m) | training (s) | "
+        f"| R (deg) | variant | sequences | draws | error ({units}), mean ± 95 % CI | median | "
+        f"left the training region | still ({units}) | rigid ({units}) | training (s) | "
         "prediction (ms/seq) |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
@@ -201,7 +229,7 @@ def plot_errors(table: pd.DataFrame, out: Path) -> None:
         axis.set_xlabel("training sequences")
         axis.set_ylim(bottom=0.0)
         axis.grid(alpha=0.3)
-    axes[0][0].set_ylabel("mean point distance (m)")
+    axes[0][0].set_ylabel(f"mean point distance ({units_of(table)})")
     handles = {}
     for axis in axes[0]:
         for handle, label in zip(*axis.get_legend_handles_labels(), strict=True):

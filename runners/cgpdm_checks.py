@@ -4,6 +4,7 @@ memory and simulation work a run needs, estimated before anything is allocated."
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from omegaconf import DictConfig
@@ -47,6 +48,7 @@ def check_cgpdm_config(cfg: DictConfig) -> None:
     total = integer("data.num_sequences", data.num_sequences, minimum=2)
     integer("data.num_test", data.num_test, minimum=1)
     integer("data.num_train", data.num_train, minimum=1)
+    error_units(cfg)
     rule = split_rule(cfg)
     if simulated:  # the sequence numbers are 0..num_sequences-1: checked before simulating
         rule.check_numbers(range(total))
@@ -93,6 +95,17 @@ def check_work(cfg: DictConfig, sequences: int, samples: int) -> None:
                 f"(data.num_sequences x excitation.num_samples x cloth.sample_dt / "
                 f"cloth.timestep), more than the {MAX_PHYSICS_STEPS:.0e} mcpilco runs"
             )
+
+
+def error_units(cfg: DictConfig) -> str:
+    """``data.units``, or by default ``m`` for the simulator's data and ``unitless`` for
+    CSV data (whose units mcpilco cannot know); it names the summary's error columns."""
+    units = cfg.data.get("units")
+    if units is None:
+        return "unitless" if cfg.data.csv_dir else "m"
+    if not isinstance(units, str) or not re.fullmatch(r"[A-Za-z][A-Za-z0-9]*", units):
+        raise ConfigError(f"data.units={units!r} must be a unit name of letters and digits")
+    return units
 
 
 def split_rule(cfg: DictConfig) -> SequenceSplit:

@@ -42,7 +42,7 @@ from mcpilco.run_storage import RunDirectory, load_tensors
 from mcpilco.safe_config import check_targets
 from mcpilco.tracking import McapLogger
 from mcpilco.tracking.metadata import run_metadata
-from runners.cgpdm_checks import check_cgpdm_config, check_training_size, split_rule
+from runners.cgpdm_checks import check_cgpdm_config, check_training_size, error_units, split_rule
 from runners.cloth_data import (
     excitation_from,
     generate_datasets,
@@ -137,7 +137,17 @@ def work(cfg: DictConfig, setup: CGPDMSetup, contract: RunContract, finished: li
     train_rows, test_rows = rule.rows(dataset)
     setup.model.check_observation_dim(dataset.observations.shape[-1])
     training, test = dataset.subset(train_rows), dataset.subset(test_rows)
-    storage.write_text("training_set.json", json.dumps(rule.record(dataset, train_rows, test_rows)))
+    range_note = (
+        "a label from the config (CSV data: the movement range is not known)"
+        if cfg.data.csv_dir
+        else "the movement range R of the simulated data set"
+    )
+    record = {
+        **rule.record(dataset, train_rows, test_rows),
+        "units": error_units(cfg),
+        "range_deg": {"value": cfg.data.range_deg, "meaning": range_note},
+    }
+    storage.write_text("training_set.json", json.dumps(record))
     setup.model.set_data(training_data(training, setup.device))
     log.info(
         "training the %s CGPDM on %d sequences (R=%s, draw %d): %d outer L-BFGS steps",
@@ -171,16 +181,17 @@ def work(cfg: DictConfig, setup: CGPDMSetup, contract: RunContract, finished: li
         test, latent, predicted, errors, seconds, predict_seconds, loss, training.indices.tolist()
     )
     log_test_sequences(cfg, contract, results, [int(s) for s in finished])
-    table = storage.summary()
+    table, units = storage.summary(), error_units(cfg)
     log.info(
-        "R=%s n=%d draw=%d %s: mean error %.4f m (still %.4f, rigid %.4f)",
+        "R=%s n=%d draw=%d %s: mean error %.4f %s (still %.4f, rigid %.4f)",
         cfg.data.range_deg,
         len(train_rows),
         cfg.seed,
         cfg.cgpdm_name,
-        table.error_m.mean(),
-        table.still_error_m.mean(),
-        table.rigid_error_m.mean(),
+        table[f"error_{units}"].mean(),
+        units,
+        table[f"still_error_{units}"].mean(),
+        table[f"rigid_error_{units}"].mean(),
     )
 
 
@@ -227,7 +238,7 @@ def log_test_sequences(
         observer.run_started(run_metadata(config_yaml, cfg.seed, "cpu", "float64"), len(done) - 1)
     dt = float(cfg.cloth.sample_dt)
     distances = point_distance_per_step(test.observations, results.predicted)  # [S, N] m
-    errors = results.errors
+    errors, units = results.errors, error_units(cfg)
     try:
         for k in range(len(done), len(test.indices)):
             row = {
@@ -237,9 +248,9 @@ def log_test_sequences(
                 "num_train": len(results.training_sequences),
                 "draw": cfg.seed,
                 "variant": cfg.cgpdm_name,
-                "error_m": float(errors["model"][k]),
-                "still_error_m": float(errors["still"][k]),
-                "rigid_error_m": float(errors["rigid"][k]),
+                f"error_{units}": float(errors["model"][k]),
+                f"still_error_{units}": float(errors["still"][k]),
+                f"rigid_error_{units}": float(errors["rigid"][k]),
                 "eval_cost": float(errors["model"][k]),
                 "fit_seconds": results.train_seconds,
                 "predict_seconds": results.predict_seconds,

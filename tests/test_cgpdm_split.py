@@ -139,10 +139,36 @@ def test_the_runner_trains_on_the_given_sequences_and_records_them(tmp_path: Pat
     assert done.returncode == 0, done.stderr[-3000:]
     record = json.loads((tmp_path / "run" / "training_set.json").read_text())
     assert record["train"] == [2, 5] and record["test"] == [1, 3]
+    assert record["units"] == "unitless" and "label" in record["range_deg"]["meaning"]
     summary = pd.read_csv(tmp_path / "run" / "summary.csv")
     assert summary["sequence"].tolist() == [1, 3] and set(summary["num_train"]) == {2}
+    assert {"error_unitless", "still_error_unitless", "rigid_error_unitless"} <= set(summary)
+    assert not any(column.endswith("_m") for column in summary)  # no metres claimed
     refused = run_cgpdm(tmp_path, "data.train_sequences=[2,7]", "overwrite=true")
     assert refused.returncode != 0
     output = (refused.stdout + refused.stderr).splitlines()
     lines = [line for line in output if "data.train_sequences" in line]
     assert lines and "names [7], not in the data set" in lines[0]
+
+
+def test_the_report_carries_the_units_and_refuses_to_mix_them() -> None:
+    from analysis.cgpdm_report import cells, markdown, with_units
+
+    def models(units: str, draws: range) -> pd.DataFrame:
+        return pd.DataFrame(
+            {
+                "range_deg": 30, "variant": "high", "num_train": 5, "draw": list(draws),
+                f"error_{units}": [1.0, 2.0, 3.0][: len(draws)], f"still_error_{units}": 4.0,
+                f"rigid_error_{units}": 5.0, "fit_seconds": 1.0, "predict_seconds": 0.1,
+                "left_region": 0.0,
+            }
+        )  # fmt: skip
+
+    text = markdown(cells(models("mm", range(3))))
+    assert "error (mm), mean ± 95 % CI" in text and "still (mm)" in text
+    assert "| 2.0000 ±" in text  # the mean of 1, 2, 3
+    mixed = pd.concat(
+        [with_units(models("mm", range(2))), with_units(models("unitless", range(2, 4)))]
+    )
+    with pytest.raises(ValueError, match=r"different units \['mm', 'unitless'\]"):
+        cells(mixed)

@@ -88,6 +88,7 @@ CGPDM_BAD: dict[str, list[Any]] = {
     "data.train_sequences": ["abc", [], [1, 1], [-1], [1.5], [True], [60]],  # 50 simulated
     "data.test_sequences": ["abc", 5, [], [2, 2], [-3], [99]],
     "data.allow_overlap": BOOL_BAD,
+    "data.units": [5, "m/s", "", "1m"],
     "data.dir": ["", 5, "A_FILE/data"],  # under a file (made by the test)
     "data.path": ["no/such/file.npz", 5],
     "data.csv_dir": ["no/such/folder", 5],
