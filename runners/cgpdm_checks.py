@@ -50,6 +50,9 @@ def check_cgpdm_config(cfg: DictConfig) -> None:
     integer("data.num_train", data.num_train, minimum=1)
     error_units(cfg)
     rule = split_rule(cfg)
+    samples = integer("excitation.num_samples", cfg.excitation.num_samples, minimum=3)
+    if simulated or cfg.mode == "generate":  # sizes first: the split check lists sequences
+        check_work(cfg, total, samples)
     if simulated:  # the sequence numbers are 0..num_sequences-1: checked before simulating
         rule.check_numbers(range(total))
     if data.path is not None and not Path(text("data.path", data.path)).is_file():
@@ -62,17 +65,14 @@ def check_cgpdm_config(cfg: DictConfig) -> None:
     low, high = numbers("excitation.frequency_range", excitation.frequency_range, length=2)
     if not 0 < low <= high:
         raise ConfigError(f"excitation.frequency_range={[low, high]} must be 0 < low <= high (Hz)")
-    samples = integer("excitation.num_samples", excitation.num_samples, minimum=3)
     train = cfg.train
     for key in ("steps", "iterations_per_step", "history_size"):
         integer(f"train.{key}", train[key], minimum=1)
     number("train.learning_rate", train.learning_rate, above=0)
     boolean("tracking.mcap", cfg.tracking.mcap)
     rerun_mode(cfg)
-    if simulated or cfg.mode == "generate":
-        if cfg.mode == "train":
-            writable_directory("data.dir", data.dir)
-        check_work(cfg, total, samples)
+    if simulated and cfg.mode == "train":
+        writable_directory("data.dir", data.dir)
 
 
 def check_work(cfg: DictConfig, sequences: int, samples: int) -> None:

@@ -308,7 +308,9 @@ def test_cgpdm_closes_each_sequence_log_chunk_before_its_row(
     from mcpilco.latent.study import score
 
     test = ClothDataset(true, controls, np.array([3, 4]), {})
-    results = cgpdm.TestResults(test, latent, predicted, score(test, predicted), 1.0, 0.1, 0.0)
+    results = cgpdm.TestResults(
+        test, latent, predicted, score(test, predicted), 1.0, 0.1, 0.0, [0, 1, 2]
+    )
     cgpdm.log_test_sequences(cfg, RunContract(storage, CGPDM, KINDS), results, [])
     assert seen == [(0, []), (1, [3])]  # each row written after its chunk was closed
     assert storage.finished_units("sequence") == [3, 4]
