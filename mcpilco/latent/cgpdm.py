@@ -8,6 +8,9 @@ the kernels' hyper-parameters by minimising eq. 6.11 (multiple sequences, §6.2.
     L_y = D/2 ln|K_y(X)| + ½ tr(K_y⁻¹ Y W_y² Yᵀ) − N ln|W_y|
     L_x = d/2 ln|K_x(X̃)| + ½ tr(K_x⁻¹ Δ W_x² Δᵀ) − (N − P) ln|W_x|
 
+(the negative log-likelihoods of the two GPs whose outputs have std w⁻¹; the authors'
+library weights both scale terms twice, −2N ln|W|: ``scale_log_det_factor=2``).
+
 Observations are centred on their training mean (a zero-mean GP on raw positions would
 pull every prediction towards the origin), and controls are divided by their training
 standard deviation (the cloth's u is ~1 cm per step, far below the unit initial
@@ -64,6 +67,8 @@ class CGPDM(ExtensionPoint, nn.Module):
         min_noise: numerical floor added to both noise standard deviations' variances.
         center_observations: subtract the training mean from y (the authors' library does
             not: its latent GP models the raw coordinates).
+        scale_log_det_factor: c in the scale terms −c N ln|W_y| and −c (N − P) ln|W_x|
+            (1: eq. 6.11, the likelihood; 2: the authors' library).
     """
 
     def __init__(
@@ -79,6 +84,7 @@ class CGPDM(ExtensionPoint, nn.Module):
         dynamics_scale: float = 1.0,
         min_noise: float = 1e-3,
         center_observations: bool = True,
+        scale_log_det_factor: float = 1.0,
     ) -> None:
         super().__init__()
         if not isinstance(latent_dim, int) or latent_dim < 1:
@@ -89,6 +95,7 @@ class CGPDM(ExtensionPoint, nn.Module):
             ("latent_scale", latent_scale),
             ("dynamics_scale", dynamics_scale),
             ("min_noise", min_noise),
+            ("scale_log_det_factor", scale_log_det_factor),
         ):
             if not isinstance(value, int | float) or not 0 < value < math.inf:
                 raise ConfigError(f"cgpdm.{name}={value!r} must be positive (and finite)")
@@ -112,6 +119,7 @@ class CGPDM(ExtensionPoint, nn.Module):
         self.train_dynamics_scales = train_dynamics_scales
         self.min_noise_variance = float(min_noise) ** 2
         self.center_observations = bool(center_observations)
+        self.scale_log_det_factor = float(scale_log_det_factor)
         self.output_names = "CGPDM"
         self._posterior: _Posterior | None = None
 
@@ -206,15 +214,17 @@ class CGPDM(ExtensionPoint, nn.Module):
             len(inputs), dtype=gram.dtype, device=gram.device
         )
 
-    @staticmethod
-    def _term(factor: torch.Tensor, targets: torch.Tensor, log_scale: torch.Tensor) -> torch.Tensor:
-        """M/2 ln|K| + ½ tr(K⁻¹ T W² Tᵀ) − n ln|W| for K = L Lᵀ, T ``[n, M]``."""
+    def _term(
+        self, factor: torch.Tensor, targets: torch.Tensor, log_scale: torch.Tensor
+    ) -> torch.Tensor:
+        """M/2 ln|K| + ½ tr(K⁻¹ T W² Tᵀ) − c n ln|W| for K = L Lᵀ, T ``[n, M]``."""
         n, outputs = targets.shape
         whitened = torch.linalg.solve_triangular(
             factor, targets * torch.exp(log_scale), upper=False
         )
         log_det = 2.0 * torch.log(torch.diagonal(factor)).sum()
-        return 0.5 * outputs * log_det + 0.5 * whitened.square().sum() - n * log_scale.sum()
+        scale_term = self.scale_log_det_factor * n * log_scale.sum()
+        return 0.5 * outputs * log_det + 0.5 * whitened.square().sum() - scale_term
 
     def _factors(self) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor]:
         """Cholesky factors of K_y(X) and K_x(X̃), with the dynamics pairs (X̃, Δ)."""
