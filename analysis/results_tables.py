@@ -165,6 +165,12 @@ def cgpdm_errors() -> str:
     return cgpdm_report.markdown(cgpdm_report.cells(models))
 
 
+def cgpdm_external_leads() -> str:
+    """Issue 57's candidate settings on the data set made in the external layout."""
+    models = pd.read_csv(RESULTS / "cgpdm_external" / "report" / "models.csv")
+    return cgpdm_report.markdown(cgpdm_report.cells(models))
+
+
 TABLES: dict[str, Callable[[], str]] = {
     "thesis_settings": lambda: runs_table("cartpole_thesis_settings"),
     "kernel_ablation_quick": lambda: success_table("kernel_ablation_quick/sweep"),
@@ -185,6 +191,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "control_latency": control_latency,
     "control_coverage": control_coverage_table,
     "cgpdm_errors": cgpdm_errors,
+    "cgpdm_external_leads": cgpdm_external_leads,
 }
 """Every table a results page may hold, by the name its marker gives."""
 

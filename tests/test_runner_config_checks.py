@@ -127,6 +127,7 @@ CGPDM_BAD: dict[str, list[Any]] = {
     "cgpdm.train_dynamics_scales": BOOL_BAD,
     "cgpdm.min_noise": NUMBER_BAD,
     "cgpdm.center_observations": BOOL_BAD,
+    "cgpdm.scale_log_det_factor": NUMBER_BAD,
 }
 CGPDM_ELSEWHERE = {"resume": "a directory: refused by runners.job (test_run_contract)"}
 
