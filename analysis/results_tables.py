@@ -160,14 +160,9 @@ def control_coverage_table() -> str:
     return control_coverage.coverage_markdown(rows)
 
 
-def cgpdm_errors() -> str:
-    models = pd.read_csv(RESULTS / "cgpdm" / "report" / "models.csv")
-    return cgpdm_report.markdown(cgpdm_report.cells(models))
-
-
-def cgpdm_external_leads() -> str:
-    """Issue 57's candidate settings on the data set made in the external layout."""
-    models = pd.read_csv(RESULTS / "cgpdm_external" / "report" / "models.csv")
+def cgpdm_table(study: str) -> str:
+    """The Fig. 6.5 table of a CGPDM study from its committed ``report/models.csv``."""
+    models = pd.read_csv(RESULTS / study / "report" / "models.csv")
     return cgpdm_report.markdown(cgpdm_report.cells(models))
 
 
@@ -190,8 +185,8 @@ TABLES: dict[str, Callable[[], str]] = {
     "control_generalisation": control_generalisation,
     "control_latency": control_latency,
     "control_coverage": control_coverage_table,
-    "cgpdm_errors": cgpdm_errors,
-    "cgpdm_external_leads": cgpdm_external_leads,
+    "cgpdm_errors": lambda: cgpdm_table("cgpdm"),
+    "cgpdm_external_leads": lambda: cgpdm_table("cgpdm_external"),  # issue 57's leads
 }
 """Every table a results page may hold, by the name its marker gives."""
 
