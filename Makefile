@@ -16,7 +16,7 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet $(TORCH) $(if $(strip $(TORCH_INDEX)),--index-url $(strip $(TORCH_INDEX)))   # pinned first
-	$(PY) -m pip install --quiet -e '.[dev]'
+	$(PY) -m pip install --quiet -e '.[dev,gym]'   # gym: the Gymnasium adapter's tests run too
 	touch $(STAMP)
 
 install: $(STAMP)  ## create the virtual environment and install mcpilco

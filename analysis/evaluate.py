@@ -1,6 +1,7 @@
 """Run a learned policy many times on the system and on its model, count the successes.
 
 ``python -m analysis.evaluate RUN_DIR [--trial K] [--runs 400] [--seed 0]``
+``python -m analysis.evaluate RUN_DIR --trial K --episodes 10`` (``--episodes`` = ``--runs``)
 ``python -m analysis.evaluate RUN_DIR --starts 0=-2,-1.5,-1,-0.5,0,0.5,1,1.5,2``
 
 Loads the run's config, the policy and GP checkpoints of trial K (default: the last
@@ -11,7 +12,11 @@ finished trial), then
 * simulates ``--runs`` particles on the learned model the way the optimiser saw them
   (with or without the simulated online estimator, as the run was trained),
 
-and applies the system's success criterion to every trajectory (thesis §3.3, Fig. 3.3).
+and applies the system's success criterion to every trajectory (thesis §3.3, Fig. 3.3);
+every numeric metric is summarised by its mean, max and 95 % Student-t half-width over the
+runs. A Gymnasium system (``system=gymnasium``) runs its environment's whole episode
+(``max_episode_steps``, not the trial's length), so its ``env_return`` compares with
+published returns; its starts are the environment's resets seeded from ``--seed``.
 Writes ``evaluation/trial_KK.json`` in the run directory (the counts, each system run's
 start and metrics, and their mean and max) and prints a summary.
 
@@ -82,11 +87,12 @@ def evaluate(run_dir: Path, trial: int | None, runs: int, seed: int) -> dict[str
     c = experiment.components
     system, rng = c.system, np.random.default_rng(seed)
 
+    steps = getattr(system, "episode_steps", None) or system.num_steps
     system_success, system_runs = [], []
     for _ in tqdm(range(runs), desc=f"trial {trial} on the system", unit="run"):
         controller = PolicyController(c.policy, c.model, c.estimator)
         x0 = system.sample_initial_state(rng)
-        metrics = system.evaluate(system.rollout(controller, x0, system.num_steps, rng))
+        metrics = system.evaluate(system.rollout(controller, x0, steps, rng))
         system_success.append(metrics.get("success"))
         system_runs.append(
             {"initial_state": x0.tolist(), **{k: _plain(v) for k, v in metrics.items()}}
@@ -98,7 +104,7 @@ def evaluate(run_dir: Path, trial: int | None, runs: int, seed: int) -> dict[str
     generator = torch.Generator(device=experiment.device).manual_seed(seed)
     with torch.no_grad(), frozen(c.model):
         particles = rollout(runs, 0.0, generator).states.cpu().numpy()  # [T+1, runs, d_x]
-    no_actions = np.zeros((system.num_steps, system.action_dim))
+    no_actions = np.zeros((particles.shape[0] - 1, system.action_dim))
     model_success = [
         system.evaluate(Trajectory(states, states, no_actions, system.dt)).get("success")
         for states in particles.transpose(1, 0, 2)
@@ -106,6 +112,7 @@ def evaluate(run_dir: Path, trial: int | None, runs: int, seed: int) -> dict[str
     result = {
         "trial": trial,
         "runs": runs,
+        "steps": steps,
         "seed": seed,
         "simulate_estimator": c.simulate_estimator,
         "success_criterion": has_criterion(system_success),
@@ -132,17 +139,23 @@ def count_successes(outcomes: list[Any]) -> int | None:
 
 
 def summarise_metrics(runs: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
-    """Mean and max over runs of every numeric (non-boolean) metric the system reports."""
+    """Mean, max and the 95 % Student-t half-width of the mean (``ci95``, NaN for one run)
+    over runs of every numeric (non-boolean) metric the system reports."""
+    from scipy import stats
+
     names = [
         k for k, v in runs[0].items() if isinstance(v, int | float) and not isinstance(v, bool)
     ]
-    return {
-        name: {
-            "mean": float(np.mean([run[name] for run in runs])),
-            "max": float(np.max([run[name] for run in runs])),
-        }
-        for name in names
-    }
+    summary = {}
+    for name in names:
+        values = np.array([run[name] for run in runs], dtype=np.float64)
+        half = (
+            float(stats.t.ppf(0.975, len(values) - 1) * values.std(ddof=1) / np.sqrt(len(values)))
+            if len(values) > 1
+            else float("nan")
+        )
+        summary[name] = {"mean": float(values.mean()), "max": float(values.max()), "ci95": half}
+    return summary
 
 
 def parse_starts(text: str, state_dim: int) -> tuple[int, list[float]]:
@@ -223,7 +236,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("run_dir", type=Path)
     parser.add_argument("--trial", type=int, default=None, help="default: last finished")
-    parser.add_argument("--runs", type=int, default=400)
+    parser.add_argument("--runs", "--episodes", dest="runs", type=int, default=400)
     parser.add_argument("--seed", type=int, default=0, help="x0, noise and particle seed")
     parser.add_argument("--starts", default=None, help="INDEX=V1,V2,...: one run per start")
     args = parser.parse_args()
@@ -251,7 +264,10 @@ def main() -> None:
             "(the system's evaluate() reports no 'success')"
         )
     for name, stats in result["system_metrics"].items():
-        print(f"  system {name}: mean {stats['mean']:.4g}, max {stats['max']:.4g}")  # noqa: T201
+        print(  # noqa: T201
+            f"  system {name}: mean {stats['mean']:.4g} ± {stats['ci95']:.3g} (95 %), "
+            f"max {stats['max']:.4g}"
+        )
 
 
 if __name__ == "__main__":

@@ -102,9 +102,16 @@ def bind_if_accepted(factory: Any, name: str, value: Any) -> Any:
 
 
 def exploration_factory(made: Any, system: MechanicalSystem) -> Any:
-    """The exploration partial with the action size bound, and the system too when the
-    controller takes one (a PD controller following the task's reference)."""
-    return bind_if_accepted(partial(made, action_dim=system.action_dim), "system", system)
+    """The exploration partial with the action size bound, ``u_max`` and ``dt`` taken from
+    the built system where the config left them null (a Gymnasium environment's come from
+    the environment), and the system too when the controller takes one (a PD controller
+    following the task's reference)."""
+    factory = partial(made, action_dim=system.action_dim)
+    given = made.keywords if isinstance(made, partial) else {}
+    for name, value in (("u_max", system.u_max), ("dt", system.dt)):
+        if name in given and given[name] is None:
+            factory = partial(factory, **{name: value})
+    return bind_if_accepted(factory, "system", system)
 
 
 def check_memory(cfg: DictConfig, system: MechanicalSystem) -> None:
@@ -113,7 +120,7 @@ def check_memory(cfg: DictConfig, system: MechanicalSystem) -> None:
     functions, and a rollout of M particles over T steps that keeps, per step, each
     particle's kernel vector against the n = T exploration samples, its basis
     activations and its state (for the backward pass), in float64."""
-    steps = system.num_steps
+    steps = max(system.num_steps, system.search_steps)
     dims = system.state_dim + system.action_dim
     fits_in_memory(
         "system (trial duration / dt)",

@@ -16,12 +16,15 @@ class Trajectory:
         measurements: what the sensors returned ``[T+1, d_y]`` (noisy, possibly partial).
         actions: inputs applied ``[T, d_u]``, held constant over each sample (ZOH).
         dt: sampling time in seconds.
+        rewards: the environment's reward after each action ``[T]`` (Gymnasium
+            environments), None for systems that give none.
     """
 
     states: np.ndarray
     measurements: np.ndarray
     actions: np.ndarray
     dt: float
+    rewards: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         steps = self.actions.shape[0]
@@ -29,6 +32,11 @@ class Trajectory:
             raise ValueError(
                 f"trajectory lengths disagree: states {self.states.shape}, "
                 f"measurements {self.measurements.shape}, actions {self.actions.shape}"
+            )
+        if self.rewards is not None and self.rewards.shape != (steps,):
+            raise ValueError(
+                f"trajectory lengths disagree: rewards {self.rewards.shape}, "
+                f"actions {self.actions.shape}"
             )
 
     @property
@@ -42,13 +50,16 @@ class Trajectory:
         return np.arange(self.num_steps + 1) * self.dt
 
     def as_arrays(self) -> dict[str, np.ndarray]:
-        """Plain arrays, for ``np.savez``."""
-        return {
+        """Plain arrays, for ``np.savez`` (``rewards`` only where there are some)."""
+        arrays = {
             "states": self.states,
             "measurements": self.measurements,
             "actions": self.actions,
             "dt": np.asarray(self.dt),
         }
+        if self.rewards is not None:
+            arrays["rewards"] = self.rewards
+        return arrays
 
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray]) -> Trajectory:
@@ -58,4 +69,5 @@ class Trajectory:
             measurements=np.asarray(arrays["measurements"]),
             actions=np.asarray(arrays["actions"]),
             dt=float(arrays["dt"]),
+            rewards=np.asarray(arrays["rewards"]) if "rewards" in arrays else None,
         )

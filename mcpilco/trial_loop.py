@@ -181,7 +181,12 @@ class TrialLoop:
             controller = PolicyController(self.c.policy, self.c.model, self.c.estimator)
             trajectory = self._interact(controller, trial)
             rollout_seconds = time.perf_counter() - start
-            figures = calibration(predicted, trajectory.states, self.c.system.state_names)
+            # the real rollout may be longer than the search horizon or end early (a
+            # terminated episode): the figures compare the steps both have
+            common = min(len(predicted), len(trajectory.states))
+            figures = calibration(
+                predicted[:common], trajectory.states[:common], self.c.system.state_names
+            )
             self.storage.save_checkpoint(trial, "policy", self.c.policy.state_dict())
             self.storage.save_checkpoint(trial, "model", self.c.model.checkpoint())
             row = {
@@ -241,7 +246,7 @@ class TrialLoop:
             raise NotPositiveDefiniteError(
                 f"trial {trial}: {error} ({self._saved_note(trial)})"
             ) from error
-        if not np.isfinite(report.negative_log_likelihood):
+        if self.c.model.fits_gps and not np.isfinite(report.negative_log_likelihood):
             raise NonFiniteError(
                 f"trial {trial}: the GP fit ended at -log p(y|X)/N = "
                 f"{report.negative_log_likelihood} ({self._saved_note(trial)})"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import logging
 from pathlib import Path
 from typing import Any
@@ -56,7 +57,11 @@ def work(
     restored by the loop itself)."""
     storage = contract.storage
     run_dir = storage.path
-    observers = build_observers(cfg, run_dir, experiment.components.system)
+    system = experiment.components.system
+    observers = build_observers(cfg, run_dir, system)
+    describe = getattr(system, "describe", None)
+    if callable(describe):  # what the system took from its environment (p(x0), dt, bounds)
+        storage.write_text("system.json", json.dumps(describe(), indent=1) + "\n")
     config_yaml = OmegaConf.to_yaml(cfg, resolve=True)
     metadata = run_metadata(config_yaml, cfg.seed, cfg.device, cfg.dtype)
     loop = TrialLoop(

@@ -53,6 +53,9 @@ class ModelStructure(ExtensionPoint, nn.Module, ABC):
             output's trained noise std, the reference code's SoD mode).
     """
 
+    fits_gps: bool = True
+    """False for a structure that learns nothing (its fit reports no likelihood, NaN)."""
+
     def __init__(
         self,
         system: MechanicalSystem,

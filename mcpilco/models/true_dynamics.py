@@ -19,7 +19,9 @@ class TrueDynamics(SpeedIntegration):
     Optimising a policy on this model tells model error apart from policy-search failure:
     if the optimiser cannot solve a task even here, no GP will make it. Each step holds
     the action over T_s and integrates :meth:`~mcpilco.systems.base.OdeSystem.torch_derivatives`
-    with ``substeps`` classical Runge–Kutta (RK4) steps, differentiably. The particles,
+    with ``substeps`` classical Runge–Kutta (RK4) steps, differentiably (or, for a system
+    with a discrete ``torch_step`` such as a Gymnasium environment whose equations are
+    known, one step of it). The particles,
     features and policy inputs are those of :class:`SpeedIntegration`, so estimators and
     policies see exactly what they see in a learning run.
 
@@ -29,18 +31,22 @@ class TrueDynamics(SpeedIntegration):
             the structure is built like the others; no GP is ever made).
     """
 
+    fits_gps = False
+
     def __init__(self, *args: object, substeps: int = 4, **kwargs: object) -> None:
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
-        if not isinstance(self.system, OdeSystem):
+        self.discrete = callable(getattr(self.system, "torch_step", None))
+        if not isinstance(self.system, OdeSystem) and not self.discrete:
             raise ConfigError(
-                "the true-dynamics model needs an ODE system with torch equations of motion, "
-                f"got {type(self.system).__name__}"
+                "the true-dynamics model needs an ODE system with torch equations of motion "
+                f"(or a system with a torch_step), got {type(self.system).__name__}"
             )
         try:
             probe = torch.zeros(1, self.system.state_dim, dtype=torch.float64)
-            self.system.torch_derivatives(probe, probe.new_zeros(1, self.system.action_dim))
+            equations = self.system.torch_step if self.discrete else self.system.torch_derivatives  # type: ignore[attr-defined]
+            equations(probe, probe.new_zeros(1, self.system.action_dim))
         except NotImplementedError as error:
-            raise ConfigError(str(error)) from None
+            raise ConfigError(f"the true-dynamics model: {error}") from None
         if not isinstance(substeps, int) or substeps < 1:
             raise ConfigError(f"model.substeps must be a positive integer, got {substeps!r}")
         self.substeps = substeps
@@ -67,7 +73,10 @@ class TrueDynamics(SpeedIntegration):
         encoded: torch.Tensor | None = None,
     ) -> torch.Tensor:
         """Next states ``[M, d_x]`` from states ``[M, d_x]`` and actions ``[M, d_u]``
-        (``noise`` and ``encoded`` are ignored: the plant is deterministic)."""
+        (``noise`` and ``encoded`` are ignored: the plant is deterministic). A system with
+        a discrete ``torch_step`` (a Gymnasium environment's own update) steps by it."""
+        if self.discrete:
+            return self.system.torch_step(particles, actions)  # type: ignore[attr-defined]
         derivatives = self.system.torch_derivatives  # type: ignore[attr-defined]
         h = self.system.dt / self.substeps
         state = particles

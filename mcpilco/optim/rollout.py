@@ -116,7 +116,8 @@ class ParticleRollout:
         dtype: torch.dtype | None = None,
         compile_steps: int = 1,
     ) -> ParticleRollout:
-        """A rollout from the system's p(x0) over one trial, on the policy's device, in
+        """A rollout from the system's p(x0) over its search horizon (one trial unless the
+        system says otherwise, :attr:`MechanicalSystem.search_steps`), on the policy's device, in
         ``dtype`` (None: the policy's); with ``simulate_estimator`` false the policy sees
         the particles instead of online estimates of their simulated readings (MC-PILCO
         instead of MC-PILCO4PMS); ``compile``, ``dtype``, ``compile_steps``: see the class."""
@@ -128,7 +129,7 @@ class ParticleRollout:
             estimator=estimator,
             initial_mean=torch.as_tensor(system.initial_mean, dtype=like.dtype, device=like.device),
             initial_std=torch.as_tensor(system.initial_std, dtype=like.dtype, device=like.device),
-            horizon=system.num_steps,
+            horizon=system.search_steps,
             sensors=system.sensors if simulate_estimator else None,
             initial_uniform=system.initial_distribution == "uniform",
             compile=compile,

@@ -5,6 +5,7 @@ from mcpilco.systems.base import Controller, MechanicalSystem, OdeSystem
 from mcpilco.systems.cartpole import CartPole
 from mcpilco.systems.cartpole_mujoco import CartPoleMujoco
 from mcpilco.systems.furuta import FurutaPendulum
+from mcpilco.systems.gymnasium_env import GymnasiumSystem
 from mcpilco.systems.sensors import Sensors
 from mcpilco.systems.ur5 import UR5
 
@@ -14,6 +15,7 @@ __all__ = [
     "CartPoleMujoco",
     "Controller",
     "FurutaPendulum",
+    "GymnasiumSystem",
     "MechanicalSystem",
     "OdeSystem",
     "Sensors",

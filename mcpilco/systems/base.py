@@ -56,6 +56,8 @@ class MechanicalSystem(ExtensionPoint, ABC):
     """For tracking tasks: the state the system should be in at each sample, ``[T+1, d_x]``
     (policies then also read the error to it, tracking costs compare with it); None for
     tasks with a fixed target."""
+    exact_readings_allowed: bool = False
+    """Whether ``measurement_noise_std`` may be 0 (readings equal to the state)."""
     known_coordinates: tuple[int, ...] = ()
     """Coordinates k (positions ``position_indices[k]`` and their velocities) whose next
     values the system knows exactly from state and action (see :meth:`known_transition`)."""
@@ -81,7 +83,11 @@ class MechanicalSystem(ExtensionPoint, ABC):
         self.trial_duration = positive("trial_duration", trial_duration)
         self.u_max = positive("u_max", u_max)
         self.sensors = Sensors(
-            self.state_dim, measured_indices, measurement_noise_std, quantization
+            self.state_dim,
+            measured_indices,
+            measurement_noise_std,
+            quantization,
+            allow_exact=self.exact_readings_allowed,
         )
         self.initial_mean = np.asarray(initial_mean, dtype=np.float64)
         if self.initial_mean.shape != (self.state_dim,):
@@ -112,6 +118,11 @@ class MechanicalSystem(ExtensionPoint, ABC):
     def num_steps(self) -> int:
         """Control steps per trial T = trial_duration / dt."""
         return int(round(self.trial_duration / self.dt))
+
+    @property
+    def search_steps(self) -> int:
+        """Steps the policy search rolls its particles over (the trial's by default)."""
+        return self.num_steps
 
     def sample_initial_state(self, rng: np.random.Generator) -> np.ndarray:
         """Draw x0 ~ p(x0) ``[d_x]`` (see ``initial_distribution``)."""

@@ -25,6 +25,8 @@ class Sensors:
             (units of the components).
         resolution: quantisation step per measured component or one for all; None or 0
             for none.
+        allow_exact: accept ``noise_std`` 0 (exact readings, e.g. a simulated benchmark's
+            observation); otherwise the noise must be > 0.
     """
 
     def __init__(
@@ -33,6 +35,7 @@ class Sensors:
         measured: Sequence[int] | None = None,
         noise_std: float | Sequence[float] = 1e-2,
         resolution: float | Sequence[float] | None = None,
+        allow_exact: bool = False,
     ) -> None:
         self.state_dim = state_dim
         indices = tuple(range(state_dim)) if measured is None else tuple(int(i) for i in measured)
@@ -47,8 +50,9 @@ class Sensors:
             )
         self.measured = indices
         self.noise_std = self._per_reading("measurement_noise_std", noise_std)
-        if np.any(self.noise_std <= 0):
-            raise ConfigError(f"system.measurement_noise_std must be > 0, got {noise_std!r}")
+        if np.any(self.noise_std < 0) or (not allow_exact and np.any(self.noise_std == 0)):
+            bound = ">= 0" if allow_exact else "> 0"
+            raise ConfigError(f"system.measurement_noise_std must be {bound}, got {noise_std!r}")
         self.resolution = self._per_reading(
             "quantization", 0.0 if resolution is None else resolution
         )

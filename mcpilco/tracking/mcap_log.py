@@ -185,6 +185,8 @@ class McapLogger(TrialObserver):
             )
 
     def trial_finished(self, trial: int, summary: Mapping[str, Any]) -> None:
+        others = other_numbers(summary)
+
         def number(key: str) -> float:
             value = summary.get(key)
             return 0.0 if value is None or value != value else float(value)  # NaN → 0
@@ -210,6 +212,8 @@ class McapLogger(TrialObserver):
                 nll=[
                     float(v) for k, v in summary.items() if k.startswith("nll_") and k != "nll_mean"
                 ],
+                other_names=list(others),
+                other_values=list(others.values()),
             ),
         )
         assert self._writer is not None
@@ -224,3 +228,18 @@ class McapLogger(TrialObserver):
             if self._stream is not None:
                 self._stream.close()  # flushes the footer's last bytes
                 self._stream = None
+
+
+TRIAL_FIELDS = frozenset(name for name, _, _ in schema.MESSAGES["TrialSummary"])
+
+
+def other_numbers(summary: Mapping[str, Any]) -> dict[str, float]:
+    """The numbers (and booleans, as 0/1) of a summary row that ``TrialSummary`` has no field
+    for, the per-component calibration columns aside."""
+    others = {}
+    for key, value in summary.items():
+        if key in TRIAL_FIELDS or key.startswith(("coverage_", "nll_")):
+            continue
+        if isinstance(value, bool | int | float | np.integer | np.floating | np.bool_):
+            others[str(key)] = float(value)
+    return others

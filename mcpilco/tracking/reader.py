@@ -79,7 +79,8 @@ class RunLog:
             ``cost_mean [T+1]``.
         optimization: one row per optimisation step (trial, step, cost, dropout, ...).
         hyperparameters: one row per (trial, name) with a list of values.
-        trials: one row per finished trial.
+        trials: one row per finished trial (the summary row's numbers, a system's own
+            metrics such as ``env_return`` among them).
         metadata: the ``run`` metadata records (one per start or resume).
         truncated: the file ended inside a record (a killed run).
         problems: damaged records that were skipped (the rest is read).
@@ -153,6 +154,7 @@ def read_run_log(path: str | Path) -> RunLog:
             }
             _expand(row, "coverage", message.coverage)  # per state component, in order
             _expand(row, "nll", message.nll)
+            row.update(zip(message.other_names, message.other_values, strict=False))
             trials.append(row)
     if report.truncated:
         log.warning(

@@ -64,6 +64,10 @@ MESSAGES: dict[str, list[tuple[str, int, bool]]] = {
         ("nll_mean", _T.TYPE_DOUBLE, False),
         ("coverage", _T.TYPE_DOUBLE, True),  # per state component (calibration.py)
         ("nll", _T.TYPE_DOUBLE, True),
+        # the summary row's other numbers, by name (a system's own metrics, e.g. a Gymnasium
+        # environment's env_return; empty in logs written before they were kept)
+        ("other_names", _T.TYPE_STRING, True),
+        ("other_values", _T.TYPE_DOUBLE, True),
     ],
 }
 
