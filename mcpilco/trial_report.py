@@ -32,6 +32,12 @@ def trial_line(row: Mapping[str, Any], num_trials: int) -> str:
             "" if success is None or _number(success) is None else (" ✓" if bool(success) else " ✗")
         )
         parts.append(f"cost {cost:.4g}{mark}")
+    env_return = _number(row.get("env_return"))
+    if env_return is not None:  # a Gymnasium environment's own return over the trial
+        ended = " (ended early)" if bool(row.get("terminated")) else ""
+        parts.append(
+            f"return {env_return:.4g} in {_number(row.get('env_steps')) or 0:.0f} steps{ended}"
+        )
     samples = _number(row.get("gp_samples"))
     if samples is not None:
         kept = _number(row.get("gp_kept"))
@@ -59,6 +65,7 @@ SUMMARY_COLUMNS = (
     "trial",
     "eval_cost",
     "success",
+    "env_return",
     "gp_samples",
     "optimization_steps",
     "final_particle_cost",

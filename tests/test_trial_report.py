@@ -29,3 +29,9 @@ def test_exploration_a_reduced_gp_and_a_system_without_success() -> None:
         "optimization_steps": 10, "optimization_seconds": 2.0, "final_particle_cost": math.nan,
     }  # fmt: skip
     assert trial_line(row, 2) == "trial 2/2  GP n=600 (kept 412) fit 9.0 s  10 steps (2 s)"
+
+
+def test_a_gymnasium_trial_shows_the_environments_return() -> None:
+    row = {"trial": 1, "env_return": -482.077, "env_steps": 34, "terminated": True,
+           "trial_seconds": 75.3}  # fmt: skip
+    assert trial_line(row, 10) == "trial 1/10  return -482.1 in 34 steps (ended early)  1.3 min"
