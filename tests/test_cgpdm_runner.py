@@ -143,8 +143,10 @@ def test_both_variants_compose_build_and_train(variant: str) -> None:
         "dynamics": sum(p.numel() for p in model.dynamics_kernel.parameters() if p.requires_grad),
     }
     assert counts == kernel_parameters
-    assert model.log_latent_scale.requires_grad == (variant == "high")
+    # w_y learned in both (low: the GPDM reading, issue 57); w_x only in high
+    assert model.log_latent_scale.requires_grad
     assert model.log_dynamics_scale.requires_grad == (variant == "high")
+    assert model.scale_log_det_factor == {"high": 1.0, "low": 2.0}[variant]
     with torch.no_grad():
         start = model.negative_log_marginal_likelihood().item()
     trace = CGPDMTraining(**OmegaConf.to_container(cfg.train) | {"steps": 2})(model)
