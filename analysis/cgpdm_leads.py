@@ -30,7 +30,9 @@ MODEL_KEY = ["range_deg", "variant", "num_train", "draw"]
 
 
 def combine(tables: list[pd.DataFrame], sources: list[str]) -> pd.DataFrame:
-    """The per-model tables as one; ValueError naming the first model two of them hold."""
+    """The per-model tables as one (each with ``error``/``units`` columns, older tables'
+    ``error_<units>`` renamed); ValueError naming the first model two of them hold."""
+    tables = [with_units(t) if any(c.startswith("error") for c in t) else t for t in tables]
     for table, source in zip(tables, sources, strict=True):
         missing = [c for c in [*MODEL_KEY, "error"] if c not in table]
         if missing:
@@ -46,6 +48,23 @@ def combine(tables: list[pd.DataFrame], sources: list[str]) -> pd.DataFrame:
         )
         raise ValueError(f"the model {key} is given twice ({' and '.join(holders)})")
     return models.drop(columns="_source")
+
+
+def with_units(table: pd.DataFrame) -> pd.DataFrame:
+    """A summary (or a ``models.csv``) with its error columns ``error_<units>``,
+    ``still_error_<units>``, ``rigid_error_<units>`` renamed to ``error``, ``still_error``,
+    ``rigid_error`` and the units in a ``units`` column (a table that already has them is
+    returned as it is)."""
+    if "units" in table and "error" in table:
+        return table
+    suffixes = [c.removeprefix("error_") for c in table.columns if c.startswith("error_")]
+    if len(suffixes) != 1:
+        raise KeyError(f"no single error_<units> column among {list(table.columns)}")
+    units = suffixes[0]
+    renamed = table.rename(
+        columns={f"{name}_{units}": name for name in ("error", "still_error", "rigid_error")}
+    )
+    return renamed.assign(units=units)
 
 
 def compare(models: pd.DataFrame, baseline: str, candidates: list[str]) -> pd.DataFrame:

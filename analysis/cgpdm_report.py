@@ -26,7 +26,7 @@ import pandas as pd
 from scipy import stats
 
 from analysis.cgpdm_figures import plot_errors, plot_run, units_of
-from analysis.cgpdm_leads import combine
+from analysis.cgpdm_leads import combine, with_units
 from analysis.thesis import REAL_CLOTH_ERRORS
 from mcpilco.errors import RunFileError
 from mcpilco.run_contract import CGPDM as CGPDM_KIND
@@ -77,23 +77,6 @@ def load_models(paths: list[Path]) -> tuple[pd.DataFrame, list[Path]]:
                 left_out.append(failed.parent)
     models = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame(columns=MODEL_COLUMNS)
     return models, left_out
-
-
-def with_units(table: pd.DataFrame) -> pd.DataFrame:
-    """A summary (or a ``models.csv``) with its error columns ``error_<units>``,
-    ``still_error_<units>``, ``rigid_error_<units>`` renamed to ``error``, ``still_error``,
-    ``rigid_error`` and the units in a ``units`` column (a table that already has them is
-    returned as it is)."""
-    if "units" in table and "error" in table:
-        return table
-    suffixes = [c.removeprefix("error_") for c in table.columns if c.startswith("error_")]
-    if len(suffixes) != 1:
-        raise KeyError(f"no single error_<units> column among {list(table.columns)}")
-    units = suffixes[0]
-    renamed = table.rename(
-        columns={f"{name}_{units}": name for name in ("error", "still_error", "rigid_error")}
-    )
-    return renamed.assign(units=units)
 
 
 def left_training_region(predictions: Path, margin: float = 0.5) -> float:

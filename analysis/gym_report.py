@@ -106,6 +106,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("study", type=Path)
     parser.add_argument("--trial", type=int, help="the evaluated trial (default: the last)")
+    parser.add_argument("--target", type=float, default=-200.0, help="the return to reach")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     summaries = load_summaries(args.study)
@@ -113,7 +114,8 @@ def main(argv: list[str] | None = None) -> None:
     if trial is None:
         trial = int(summaries.groupby("seed")["trial"].max().min())
     log.info("%s", returns_markdown(summaries))
-    log.info("%s", evaluation_markdown(load_evaluations(args.study, trial), trial))
+    evaluations = load_evaluations(args.study, trial)
+    log.info("%s", evaluation_markdown(evaluations, trial, args.target))
 
 
 if __name__ == "__main__":

@@ -18,7 +18,15 @@ from pathlib import Path
 
 import pandas as pd
 
-from analysis import cgpdm_report, control_coverage, control_report, report, summary
+from analysis import (
+    cgpdm_leads,
+    cgpdm_report,
+    control_coverage,
+    control_report,
+    gym_report,
+    report,
+    summary,
+)
 from analysis import control_generalisation as generalisation
 from analysis.first_success import first_successes, solved_by_trial, solved_markdown
 from analysis.sweep import load_sweep
@@ -166,6 +174,23 @@ def cgpdm_table(study: str) -> str:
     return cgpdm_report.markdown(cgpdm_report.cells(models))
 
 
+def gym_tables(
+    study: str, trial: int, target: float
+) -> tuple[Callable[[], str], Callable[[], str]]:
+    """A Gymnasium study's tables: env_return per trial over seeds, and trial ``trial``'s
+    policies on fresh episodes (each run's ``evaluation/trial_KK.json``) against ``target``."""
+    folder = RESULTS / study
+    return (
+        lambda: gym_report.returns_markdown(gym_report.load_summaries(folder)),
+        lambda: gym_report.evaluation_markdown(
+            gym_report.load_evaluations(folder, trial), trial, target
+        ),
+    )
+
+
+GYM_PENDULUM = gym_tables("gym_pendulum", 10, -200.0)  # issue 58's target
+GYM_INVERTED_PENDULUM = gym_tables("gym_inverted_pendulum", 5, 1000.0)  # the maximum
+
 TABLES: dict[str, Callable[[], str]] = {
     "thesis_settings": lambda: runs_table("cartpole_thesis_settings"),
     "kernel_ablation_quick": lambda: success_table("kernel_ablation_quick/sweep"),
@@ -187,6 +212,13 @@ TABLES: dict[str, Callable[[], str]] = {
     "control_coverage": control_coverage_table,
     "cgpdm_errors": lambda: cgpdm_table("cgpdm"),
     "cgpdm_external_leads": lambda: cgpdm_table("cgpdm_external"),  # issue 57's leads
+    "cgpdm_external_defaults": lambda: cgpdm_leads.markdown(
+        pd.read_csv(RESULTS / "cgpdm_external" / "report" / "leads.csv")
+    ),
+    "gym_pendulum_returns": GYM_PENDULUM[0],
+    "gym_pendulum_evaluation": GYM_PENDULUM[1],
+    "gym_inverted_pendulum_returns": GYM_INVERTED_PENDULUM[0],
+    "gym_inverted_pendulum_evaluation": GYM_INVERTED_PENDULUM[1],
 }
 """Every table a results page may hold, by the name its marker gives."""
 
