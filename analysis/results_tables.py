@@ -189,6 +189,7 @@ def gym_tables(
 
 
 GYM_PENDULUM = gym_tables("gym_pendulum", 10, -200.0)  # issue 58's target
+GYM_PENDULUM_TRUE = gym_tables("gym_pendulum_true_dynamics", 10, -200.0)  # the diagnosis
 GYM_INVERTED_PENDULUM = gym_tables("gym_inverted_pendulum", 5, 1000.0)  # the maximum
 
 TABLES: dict[str, Callable[[], str]] = {
@@ -217,6 +218,7 @@ TABLES: dict[str, Callable[[], str]] = {
     ),
     "gym_pendulum_returns": GYM_PENDULUM[0],
     "gym_pendulum_evaluation": GYM_PENDULUM[1],
+    "gym_pendulum_true_dynamics_evaluation": GYM_PENDULUM_TRUE[1],
     "gym_inverted_pendulum_returns": GYM_INVERTED_PENDULUM[0],
     "gym_inverted_pendulum_evaluation": GYM_INVERTED_PENDULUM[1],
 }
