@@ -67,6 +67,14 @@ def with_units(table: pd.DataFrame) -> pd.DataFrame:
     return renamed.assign(units=units)
 
 
+def signed_rank_p(difference: pd.Series) -> float:
+    """Two-sided Wilcoxon signed-rank p of paired differences; NaN for fewer than 5 pairs or
+    all differences zero (where the test says nothing)."""
+    if len(difference) < 5 or difference.abs().sum() == 0:
+        return float("nan")
+    return float(stats.wilcoxon(difference).pvalue)
+
+
 def compare(models: pd.DataFrame, baseline: str, candidates: list[str]) -> pd.DataFrame:
     """One row per candidate: the draw-by-draw comparison with ``baseline`` (see the
     module's text). A candidate or baseline with no model is a one-line ValueError."""
@@ -84,16 +92,11 @@ def compare(models: pd.DataFrame, baseline: str, candidates: list[str]) -> pd.Da
         difference = both[candidate] - both[baseline]
         by_size = both.groupby(level=["range_deg", "num_train"]).mean()
         sizes = sorted(set(both.index.get_level_values("num_train")))
-        p_value = (
-            float(stats.wilcoxon(difference).pvalue)
-            if len(both) >= 5 and difference.abs().sum() > 0
-            else float("nan")
-        )
         rows.append(
             {"baseline": baseline, "candidate": candidate, "pairs": len(both),
              "candidate_better": int((difference < 0).sum()),
              "mean_difference": float(difference.mean()) if len(both) else float("nan"),
-             "wilcoxon_p": p_value,
+             "wilcoxon_p": signed_rank_p(difference),
              "baseline_mean_of_cells": float(by_size[baseline].mean()),
              "candidate_mean_of_cells": float(by_size[candidate].mean()),
              "sizes": " ".join(str(n) for n in sizes)}

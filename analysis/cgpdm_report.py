@@ -26,7 +26,7 @@ import pandas as pd
 from scipy import stats
 
 from analysis.cgpdm_figures import plot_errors, plot_run, units_of
-from analysis.cgpdm_leads import combine, with_units
+from analysis.cgpdm_leads import combine, signed_rank_p, with_units
 from analysis.thesis import REAL_CLOTH_ERRORS
 from mcpilco.errors import RunFileError
 from mcpilco.run_contract import CGPDM as CGPDM_KIND
@@ -129,14 +129,10 @@ def paired(models: pd.DataFrame, first: str = "high", second: str = "low") -> pd
         if both.empty:
             continue
         difference = both[first] - both[second]
-        p_value = (
-            float(stats.wilcoxon(difference).pvalue)
-            if len(both) >= 5 and difference.abs().sum() > 0
-            else float("nan")
-        )
         rows.append(
             {"range_deg": range_deg, "num_train": num_train, "draws": len(both),
-             f"{first}_better": int((difference < 0).sum()), "wilcoxon_p": p_value}
+             f"{first}_better": int((difference < 0).sum()),
+             "wilcoxon_p": signed_rank_p(difference)}
         )  # fmt: skip
     return pd.DataFrame(rows)
 

@@ -181,12 +181,10 @@ class TrialLoop:
             controller = PolicyController(self.c.policy, self.c.model, self.c.estimator)
             trajectory = self._interact(controller, trial)
             rollout_seconds = time.perf_counter() - start
-            # the real rollout may be longer than the search horizon or end early (a
-            # terminated episode): the figures compare the steps both have
-            common = min(len(predicted), len(trajectory.states))
-            figures = calibration(
-                predicted[:common], trajectory.states[:common], self.c.system.state_names
-            )
+            # a real rollout longer than the search horizon is compared over the horizon
+            # (one that ended early, a terminated episode, over its own steps)
+            real = trajectory.states[: len(predicted)]
+            figures = calibration(predicted, real, self.c.system.state_names)
             self.storage.save_checkpoint(trial, "policy", self.c.policy.state_dict())
             self.storage.save_checkpoint(trial, "model", self.c.model.checkpoint())
             row = {

@@ -157,15 +157,7 @@ class MechanicalSystem(ExtensionPoint, ABC):
         measurements[0] = self.measure(x0, rng)
         require_finite(measurements[0], "the reading", 0, reading_names)
         for t in range(num_steps):
-            raw = np.asarray(controller(measurements[t], t), dtype=np.float64)
-            if raw.size != self.action_dim:
-                raise ValueError(
-                    f"step {t}: the controller returned {raw.size} actions, "
-                    f"the system takes {self.action_dim}"
-                )
-            raw = raw.reshape(self.action_dim)
-            require_finite(raw, "the action", t)
-            actions[t] = np.clip(raw, -self.u_max, self.u_max)
+            actions[t] = self.checked_action(controller, measurements[t], t)
             try:
                 states[t + 1] = self.step(states[t], actions[t])
             except (NonFiniteError, SimulationError) as error:
@@ -174,6 +166,23 @@ class MechanicalSystem(ExtensionPoint, ABC):
             measurements[t + 1] = self.measure(states[t + 1], rng)
             require_finite(measurements[t + 1], "the reading", t + 1, reading_names)
         return Trajectory(states=states, measurements=measurements, actions=actions, dt=self.dt)
+
+    def checked_action(self, controller: Controller, reading: np.ndarray, step: int) -> np.ndarray:
+        """The controller's action ``[d_u]`` at ``step`` for ``reading``, clipped to ±u_max.
+
+        Raises:
+            ValueError: it returned another number of actions than ``action_dim``.
+            NonFiniteError: an action is NaN or infinite (named with the step).
+        """
+        raw = np.asarray(controller(reading, step), dtype=np.float64)
+        if raw.size != self.action_dim:
+            raise ValueError(
+                f"step {step}: the controller returned {raw.size} actions, "
+                f"the system takes {self.action_dim}"
+            )
+        raw = raw.reshape(self.action_dim)
+        require_finite(raw, "the action", step)
+        return np.clip(raw, -self.u_max, self.u_max)
 
     def velocity_basis(self, features: torch.Tensor, action: torch.Tensor) -> torch.Tensor:
         """Physically-inspired basis φ of each velocity change, for the SP kernel.

@@ -19,7 +19,7 @@ from mcpilco.checks import require_finite
 from mcpilco.errors import ConfigError, SimulationError
 from mcpilco.systems.base import Controller, MechanicalSystem
 from mcpilco.systems.gym_dynamics import KNOWN as KNOWN_DYNAMICS
-from mcpilco.systems.initial_estimate import InitialDistribution, initial_distribution
+from mcpilco.systems.initial_estimate import initial_distribution
 from mcpilco.systems.observation_map import ObservationMap, SimulatorStateMap
 from mcpilco.trajectory import Trajectory
 
@@ -117,7 +117,7 @@ class GymnasiumSystem(MechanicalSystem):
                 )
             trial_duration = episode_steps * sample_dt
         initial = {"estimate_from_resets": 100} if initial is None else initial
-        self.initial = self._initial(dict(initial), count)
+        self.initial = initial_distribution(dict(initial), 2 * count, self._reset_state)
         super().__init__(
             dt=sample_dt,
             trial_duration=trial_duration,
@@ -202,9 +202,6 @@ class GymnasiumSystem(MechanicalSystem):
             raise ConfigError(f"system.dt={dt} differs from {self.env_id}'s own dt={own}")
         return float(own if dt is None else dt)
 
-    def _initial(self, initial: dict[str, Any], count: int) -> InitialDistribution:
-        return initial_distribution(initial, 2 * count, self._reset_state)
-
     def _reset_state(self, seed: int) -> np.ndarray:
         """The state ``[d_x]`` the environment starts in after ``reset(seed=seed)``."""
         observation, _ = self.env.reset(seed=int(seed))
@@ -248,14 +245,7 @@ class GymnasiumSystem(MechanicalSystem):
         rewards: list[float] = []
         dtype = self.env.action_space.dtype
         for t in range(num_steps):
-            raw = np.asarray(controller(readings[-1], t), dtype=np.float64).reshape(-1)
-            if raw.size != self.action_dim:
-                raise ValueError(
-                    f"step {t}: the controller returned {raw.size} actions, "
-                    f"the system takes {self.action_dim}"
-                )
-            require_finite(raw, "the action", t)
-            action = np.clip(raw, -self.u_max, self.u_max)
+            action = self.checked_action(controller, readings[-1], t)
             observation, reward, terminated, truncated, _ = self.env.step(action.astype(dtype))
             state = self.reader.state(self.reader.record(self.env, observation), states[-1])
             require_finite(state, "the state", t + 1, self.state_names)
